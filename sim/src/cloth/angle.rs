@@ -1,0 +1,220 @@
+//! The angle kernel shared by bending (eq. [2]) and shear (eq. [3]).
+//!
+//! Both energies depend on the angle at a centre particle `b` between the
+//! arms `e1 = a - b` and `e2 = c - b`. Everything is written in terms of
+//! `f = û1 · û2` (the cosine of that angle), which is smooth wherever the
+//! arms have length, so the exact gradient and Hessian follow by the chain
+//! rule from `∂f/∂e` and `∂²f/∂e²` below; each law ([`super::Bend`],
+//! [`super::Shear`]) supplies `E(f)` and its derivatives, plus its own
+//! positive semi-definite Hessian for the solver.
+//!
+//! The threshold terms `C_0 |angle|` of the paper are not smooth at zero;
+//! they use `|a| ≈ sqrt(a² + ε²) - ε` with ε = [`THRESHOLD_SMOOTHING`].
+
+use super::force::{Force, Sink};
+use crate::math::{Mat3, Real, Vec3, outer};
+use crate::spec::JacobianMode;
+
+/// ε of the smoothed absolute value in the threshold terms, radians.
+pub const THRESHOLD_SMOOTHING: Real = 1e-2;
+
+/// Local geometry of one angle: arms, their unit vectors, `f` and `∂f/∂e`.
+#[derive(Debug, Clone, Copy)]
+pub struct AngleGeom {
+    /// Arm lengths.
+    pub r1: Real,
+    /// Arm lengths.
+    pub r2: Real,
+    /// Unit arms.
+    pub u: Vec3,
+    /// Unit arms.
+    pub w: Vec3,
+    /// `û1 · û2`.
+    pub f: Real,
+    /// `∂f/∂e1 = (I - û1 û1ᵀ) û2 / r1`.
+    pub g1: Vec3,
+    /// `∂f/∂e2 = (I - û2 û2ᵀ) û1 / r2`.
+    pub g2: Vec3,
+}
+
+impl AngleGeom {
+    /// The geometry at `b` with arms to `a` and `c`; `None` if an arm has
+    /// (numerically) zero length.
+    #[inline]
+    pub fn new(a: &Vec3, b: &Vec3, c: &Vec3) -> Option<Self> {
+        let (e1, e2) = (a - b, c - b);
+        let (r1, r2) = (e1.norm(), e2.norm());
+        if r1 <= Real::MIN_POSITIVE.sqrt() || r2 <= Real::MIN_POSITIVE.sqrt() {
+            return None;
+        }
+        let (u, w) = (e1 / r1, e2 / r2);
+        let f = u.dot(&w).clamp(-1.0, 1.0);
+        Some(Self {
+            r1,
+            r2,
+            u,
+            w,
+            f,
+            g1: (w - u * f) / r1,
+            g2: (u - w * f) / r2,
+        })
+    }
+
+    /// `∂²f/∂e_i ∂e_j` as `[[H11, H12], [H21, H22]]`.
+    pub fn hessian_f(&self) -> [[Mat3; 2]; 2] {
+        let (u, w, f) = (self.u, self.w, self.f);
+        let p1 = Mat3::identity() - outer(&u, &u);
+        let p2 = Mat3::identity() - outer(&w, &w);
+        let h11 =
+            -(outer(&u, &self.g1) + outer(&self.g1, &u)) / self.r1 - p1 * (f / (self.r1 * self.r1));
+        let h22 =
+            -(outer(&w, &self.g2) + outer(&self.g2, &w)) / self.r2 - p2 * (f / (self.r2 * self.r2));
+        let h12 = p1 * p2 / (self.r1 * self.r2);
+        [[h11, h12], [h12.transpose(), h22]]
+    }
+
+    /// `|û1 × û2|`: the sine of the angle between the arms.
+    pub fn sin(&self) -> Real {
+        self.u.cross(&self.w).norm()
+    }
+}
+
+/// `E(q) = 1/2 c1 q + 1/2 c0 (sqrt(q + ε²) - ε)` for `q` = angle², with
+/// `dE/dq` and `d²E/dq²`: the quadratic term plus the smoothed threshold.
+#[inline]
+pub fn energy_of_square(q: Real, c1: Real, c0: Real) -> (Real, Real, Real) {
+    let eps2 = THRESHOLD_SMOOTHING * THRESHOLD_SMOOTHING;
+    let s = (q + eps2).sqrt();
+    (
+        0.5 * c1 * q + 0.5 * c0 * (s - THRESHOLD_SMOOTHING),
+        0.5 * c1 + 0.25 * c0 / s,
+        -0.125 * c0 / (s * s * s),
+    )
+}
+
+/// What a law returns for one element: energy, gradient and Hessian with
+/// respect to the arms `(e1, e2)`.
+#[derive(Debug, Clone, Copy)]
+pub struct ArmDerivatives {
+    /// Energy.
+    pub energy: Real,
+    /// `∂E/∂e1`, `∂E/∂e2`.
+    pub grad: [Vec3; 2],
+    /// `∂²E/∂e_i∂e_j`.
+    pub hess: [[Mat3; 2]; 2],
+}
+
+/// An energy of the angle between two arms.
+pub trait AngleLaw {
+    /// A short name.
+    const NAME: &'static str;
+    /// Energy only.
+    fn energy(g: &AngleGeom, c1: Real, c0: Real) -> Real;
+    /// Energy, gradient, and the Hessian requested by `mode`.
+    fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives;
+}
+
+/// Chain rule through `f`: gradient `E_f ∂f`, exact Hessian
+/// `E_ff ∂f ∂fᵀ + E_f ∂²f`.
+pub fn exact_through_f(g: &AngleGeom, e_f: Real, e_ff: Real) -> ([Vec3; 2], [[Mat3; 2]; 2]) {
+    let grad = [g.g1 * e_f, g.g2 * e_f];
+    let hf = g.hessian_f();
+    let gs = [g.g1, g.g2];
+    let mut hess = [[Mat3::zeros(); 2]; 2];
+    for i in 0..2 {
+        for j in 0..2 {
+            hess[i][j] = outer(&gs[i], &gs[j]) * e_ff + hf[i][j] * e_f;
+        }
+    }
+    (grad, hess)
+}
+
+/// One angle element: centre particle `b`, arms to `a` and `c`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AngleElement {
+    /// Particles `[a, b, c]`.
+    pub idx: [usize; 3],
+    /// Quadratic coefficient `C_1`.
+    pub c1: Real,
+    /// Threshold coefficient `C_0`.
+    pub c0: Real,
+}
+
+/// A set of angle elements under one law.
+#[derive(Debug, Clone)]
+pub struct AngleForce<L> {
+    /// The elements.
+    pub elements: Vec<AngleElement>,
+    law: std::marker::PhantomData<L>,
+}
+
+impl<L> Default for AngleForce<L> {
+    fn default() -> Self {
+        Self::new(Vec::new())
+    }
+}
+
+impl<L> AngleForce<L> {
+    /// A force over `elements`.
+    pub fn new(elements: Vec<AngleElement>) -> Self {
+        Self {
+            elements,
+            law: std::marker::PhantomData,
+        }
+    }
+}
+
+/// Rows of the map from particles `(a, b, c)` to arms `(e1, e2)`:
+/// `e1 = a - b`, `e2 = c - b`.
+const ARM_OF: [[Real; 2]; 3] = [[1.0, 0.0], [-1.0, -1.0], [0.0, 1.0]];
+
+impl<L: AngleLaw> Force for AngleForce<L> {
+    fn name(&self) -> &'static str {
+        L::NAME
+    }
+
+    fn energy(&self, x: &[Vec3]) -> Option<Real> {
+        Some(
+            self.elements
+                .iter()
+                .filter_map(|el| {
+                    let [a, b, c] = el.idx;
+                    AngleGeom::new(&x[a], &x[b], &x[c]).map(|g| L::energy(&g, el.c1, el.c0))
+                })
+                .sum(),
+        )
+    }
+
+    fn for_each_element(&self, visit: &mut dyn FnMut(&[usize])) {
+        for el in &self.elements {
+            visit(&el.idx);
+        }
+    }
+
+    fn accumulate<S: Sink>(&self, x: &[Vec3], _v: &[Vec3], mode: JacobianMode, sink: &mut S) {
+        for (e, el) in self.elements.iter().enumerate() {
+            let [a, b, c] = el.idx;
+            let Some(g) = AngleGeom::new(&x[a], &x[b], &x[c]) else {
+                continue; // a collapsed arm has no angle; its springs resist it
+            };
+            let d = L::eval(&g, el.c1, el.c0, mode);
+            let mut f = [Vec3::zeros(); 3];
+            let mut k = [[Mat3::zeros(); 3]; 3];
+            for p in 0..3 {
+                f[p] = -(d.grad[0] * ARM_OF[p][0] + d.grad[1] * ARM_OF[p][1]);
+                for q in 0..3 {
+                    let mut block = Mat3::zeros();
+                    for (i, ti) in ARM_OF[p].iter().enumerate() {
+                        for (j, tj) in ARM_OF[q].iter().enumerate() {
+                            if ti * tj != 0.0 {
+                                block += d.hess[i][j] * (ti * tj);
+                            }
+                        }
+                    }
+                    k[p][q] = -block;
+                }
+            }
+            sink.add(e, &el.idx, &f, Some(&k), None);
+        }
+    }
+}

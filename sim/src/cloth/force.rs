@@ -1,0 +1,46 @@
+//! The force interface shared by every energy and dissipative term.
+
+use crate::math::{Mat3, Real, Vec3};
+use crate::spec::JacobianMode;
+
+/// Receives one element's contribution at a time.
+///
+/// `element` numbers the elements of one force in a fixed order (the order
+/// of [`Force::for_each_element`]), so a sink can precompute where each
+/// element's blocks go in a sparse matrix.
+pub trait Sink {
+    /// Adds element `element` acting on particles `idx`: forces `f`, and the
+    /// Jacobian blocks `dfdx[a][b] = ∂f_a/∂x_b`, `dfdv[a][b] = ∂f_a/∂v_b`
+    /// when the force has them.
+    fn add<const N: usize>(
+        &mut self,
+        element: usize,
+        idx: &[usize; N],
+        f: &[Vec3; N],
+        dfdx: Option<&[[Mat3; N]; N]>,
+        dfdv: Option<&[[Mat3; N]; N]>,
+    );
+}
+
+/// A force term of the cloth (method.md §1, eq. [4]).
+pub trait Force {
+    /// A short name for diagnostics and tests.
+    fn name(&self) -> &'static str;
+
+    /// The potential energy at positions `x`; `None` for dissipative forces.
+    fn energy(&self, x: &[Vec3]) -> Option<Real>;
+
+    /// Visits each element's particle indices, in element order.
+    fn for_each_element(&self, visit: &mut dyn FnMut(&[usize]));
+
+    /// Adds every element's forces and Jacobian blocks to `sink`.
+    fn accumulate<S: Sink>(&self, x: &[Vec3], v: &[Vec3], mode: JacobianMode, sink: &mut S);
+}
+
+/// Maps `-∇E` and `-∇²E` of a two-particle element written in terms of
+/// `d = x_a - x_b` to the particles: `f_a = -g`, `f_b = g`,
+/// `∂f_a/∂x_a = -H`, `∂f_a/∂x_b = H`, and so on.
+#[inline]
+pub fn pair_blocks(g: Vec3, h: Mat3) -> ([Vec3; 2], [[Mat3; 2]; 2]) {
+    ([-g, g], [[-h, h], [h, -h]])
+}

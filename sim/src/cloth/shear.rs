@@ -1,0 +1,104 @@
+//! In-plane shear, method.md §1 eq. [3]:
+//! `E_s = 1/2 (C_s1 γ² + C_s0 |γ|)` with `γ = π/2 - θ` the angle between a
+//! particle's warp and weft edges.
+//!
+//! Every quad contributes one element at each of its four corners, so the
+//! cloth has no zero-energy shear mode and the stencil is symmetric. A
+//! corner owns a quarter of its quad, `A = du dv / 4`; the continuum energy
+//! `1/2 G γ² A` gives `C_s1 = G A` (the issue's `G h²` per quad) and
+//! `C_s0 = shear_threshold · A`.
+//!
+//! `γ = asin f`. PSD treatment: Gauss–Newton on the scalar `γ`,
+//! `2 E'(q) ∇γ ∇γᵀ` with `∇γ = ∇f / cos γ`; exact at the square rest state,
+//! where `γ = 0`.
+
+use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives};
+use super::angle::{energy_of_square, exact_through_f};
+use super::grid::Grid;
+use crate::math::{Mat3, Real, outer};
+use crate::spec::JacobianMode;
+
+/// The shear law.
+#[derive(Debug, Clone, Copy)]
+pub struct Shear;
+
+impl Shear {
+    /// Four corner elements per quad, stiffness `g` and threshold `g0` (N/m).
+    pub fn on_grid(grid: &Grid, g: Real, g0: Real) -> AngleForce<Shear> {
+        let area = grid.du * grid.dv / 4.0;
+        let mut el = Vec::with_capacity(4 * (grid.nu - 1) * (grid.nv - 1));
+        for j in 0..grid.nv - 1 {
+            for i in 0..grid.nu - 1 {
+                let p00 = grid.index(i, j);
+                let p10 = grid.index(i + 1, j);
+                let p11 = grid.index(i + 1, j + 1);
+                let p01 = grid.index(i, j + 1);
+                for idx in [
+                    [p10, p00, p01],
+                    [p00, p10, p11],
+                    [p01, p11, p10],
+                    [p11, p01, p00],
+                ] {
+                    el.push(AngleElement {
+                        idx,
+                        c1: g * area,
+                        c0: g0 * area,
+                    });
+                }
+            }
+        }
+        AngleForce::new(el)
+    }
+}
+
+impl AngleLaw for Shear {
+    const NAME: &'static str = "shear";
+
+    fn energy(g: &AngleGeom, c1: Real, c0: Real) -> Real {
+        let gamma = g.f.asin();
+        energy_of_square(gamma * gamma, c1, c0).0
+    }
+
+    fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives {
+        let gamma = g.f.asin();
+        let (energy, e_q, e_qq) = energy_of_square(gamma * gamma, c1, c0);
+        // NOTE: collinear arms (γ = ±π/2) are a degenerate quad; the clamp
+        // keeps the numbers finite while the springs restore it.
+        let cos = g.sin().max(1e-9);
+        // q = γ²: q_f = 2γ / cos γ, q_ff = 2 / cos² γ + 2 γ f / cos³ γ.
+        let q_f = 2.0 * gamma / cos;
+        let q_ff = 2.0 / (cos * cos) + 2.0 * gamma * g.f / (cos * cos * cos);
+        let (grad, exact) = exact_through_f(g, e_q * q_f, e_qq * q_f * q_f + e_q * q_ff);
+        let hess = match mode {
+            JacobianMode::Exact => exact,
+            JacobianMode::Solver => {
+                let s = 2.0 * e_q / (cos * cos);
+                let gs = [g.g1, g.g2];
+                let mut h = [[Mat3::zeros(); 2]; 2];
+                for i in 0..2 {
+                    for j in 0..2 {
+                        h[i][j] = outer(&gs[i], &gs[j]) * s;
+                    }
+                }
+                h
+            }
+        };
+        ArmDerivatives { energy, grad, hess }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloth::fdcheck;
+
+    #[test]
+    fn shear_force_and_jacobian_match_finite_differences() {
+        fdcheck::check_on_random_grids(|g| Shear::on_grid(g, 50.0, 0.0));
+    }
+
+    #[test]
+    fn shear_threshold_term_matches_finite_differences() {
+        fdcheck::check_on_random_grids(|g| Shear::on_grid(g, 50.0, 30.0));
+    }
+}

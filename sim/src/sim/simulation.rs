@@ -1,0 +1,355 @@
+//! [`Simulation`]: a scene's cloth, forces and solver, advanced frame by
+//! frame.
+
+use std::time::Instant;
+
+use super::control::{Control, Progress};
+use super::error::SimError;
+use super::stats::{FrameStats, StatsRecorder};
+use crate::cloth::{ForceModel, Grid};
+use crate::math::{Real, Vec3};
+use crate::solver::{
+    ClothState, Constraints, Integrator, MpcgOptions, Physics, SolveStatus, StageTimes, StepReport,
+    make_preconditioner,
+};
+use crate::spec::{Scene, TimeStepping};
+
+/// Largest edge stretch an adaptive step may reach before it is redone at
+/// half the size; beyond 10 % a fabric is far outside its linear range.
+const ADAPTIVE_MAX_STRETCH: Real = 1.10;
+/// Accepted steps in a row before the adaptive controller tries a step
+/// twice as large.
+const ADAPTIVE_GROW_AFTER: u32 = 8;
+
+/// A running simulation.
+#[derive(Debug)]
+pub struct Simulation {
+    scene: Scene,
+    grid: Grid,
+    model: ForceModel,
+    state: ClothState,
+    integrator: Integrator,
+    constraints: Constraints,
+    frame: usize,
+    steps: usize,
+    /// Adaptive stepping: current subdivision level and run of easy steps.
+    level: u32,
+    easy_steps: u32,
+}
+
+impl Simulation {
+    /// Builds the cloth, its forces and the solver for `scene`.
+    pub fn new(scene: &Scene) -> Result<Self, SimError> {
+        let grid = Grid::new(&scene.cloth, scene.material.density);
+        let model = ForceModel::new(&grid, &scene.material);
+        let n = grid.len();
+        let integrator = Integrator::new(
+            n,
+            &model,
+            make_preconditioner(scene.solver.preconditioner),
+            MpcgOptions {
+                tolerance: scene.solver.tolerance,
+                max_iterations: scene.solver.max_iterations,
+                reference: None,
+            },
+            scene.solver.warm_start,
+        );
+        let state = ClothState {
+            time: 0.0,
+            x: grid.rest.clone(),
+            v: vec![Vec3::zeros(); n],
+        };
+        let level = match scene.solver.stepping {
+            TimeStepping::Fixed { .. } => 0,
+            // Start near 1/240 s and let the controller find its way.
+            TimeStepping::Adaptive { max_level } => {
+                ((scene.frame_dt() * 240.0).log2().ceil().max(0.0) as u32).min(max_level)
+            }
+        };
+        Ok(Self {
+            scene: scene.clone(),
+            grid,
+            model,
+            state,
+            integrator,
+            constraints: Constraints::free(n),
+            frame: 0,
+            steps: 0,
+            level,
+            easy_steps: 0,
+        })
+    }
+
+    /// The scene being simulated.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The particle grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The force model.
+    pub fn model(&self) -> &ForceModel {
+        &self.model
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &ClothState {
+        &self.state
+    }
+
+    /// Mutable state, to start from a configuration other than the flat
+    /// grid (tests, checkpoints).
+    pub fn state_mut(&mut self) -> &mut ClothState {
+        self.integrator.reset_warm_start();
+        &mut self.state
+    }
+
+    /// Index of the last finished frame (0 before any step).
+    pub fn frame(&self) -> usize {
+        self.frame
+    }
+
+    /// Steps taken so far.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// `true` once every frame of the scene is done.
+    pub fn is_done(&self) -> bool {
+        self.frame >= self.scene.frames
+    }
+
+    /// Kinetic energy `1/2 Σ m v²`.
+    pub fn kinetic_energy(&self) -> Real {
+        self.state
+            .v
+            .iter()
+            .zip(&self.grid.mass)
+            .map(|(v, m)| 0.5 * m * v.norm_squared())
+            .sum()
+    }
+
+    /// Statistics of the current state as frame `frame` (no steps).
+    pub fn snapshot_stats(&self) -> FrameStats {
+        FrameStats {
+            frame: self.frame,
+            time: self.state.time,
+            steps: 0,
+            cg_iterations: 0,
+            cg_iterations_max: 0,
+            unconverged_solves: 0,
+            contacts: 0,
+            new_contacts: 0,
+            released_contacts: 0,
+            nodes_visited: 0,
+            collision_seconds: 0.0,
+            step_seconds: 0.0,
+            kinetic_energy: self.kinetic_energy(),
+            max_stretch: self.model.stretch.max_ratio(&self.state.x),
+            min_signed_distance: None,
+            dt: 0.0,
+        }
+    }
+
+    /// Fills the constraints of this step: pins hold their rest position.
+    fn constrain(&mut self) {
+        self.constraints.clear();
+        for &i in &self.scene.cloth.pinned {
+            let dv = -self.state.v[i];
+            let y = self.grid.rest[i] - self.state.x[i];
+            self.constraints.fix(i, dv, y);
+        }
+    }
+
+    /// One step of size `h`, with the step counter and errors attached.
+    fn step(&mut self, h: Real) -> Result<StepReport, SimError> {
+        let _span = tracing::trace_span!("step", step = self.steps).entered();
+        self.constrain();
+        let time = self.state.time;
+        let physics = Physics {
+            model: &self.model,
+            mass: &self.grid.mass,
+            gravity: self.scene.gravity,
+        };
+        let report = self
+            .integrator
+            .step(&mut self.state, &physics, &self.constraints, h)
+            .map_err(|e| SimError::NonFinite {
+                step: self.steps,
+                time,
+                particle: e.particle,
+                quantity: e.quantity,
+            })?;
+        self.steps += 1;
+        Ok(report)
+    }
+
+    /// Advances to the next frame and returns its statistics.
+    pub fn advance_frame(&mut self, control: &Control<'_>) -> Result<FrameStats, SimError> {
+        let (stats, _) = self.advance_frame_timed(control)?;
+        Ok(stats)
+    }
+
+    /// [`Self::advance_frame`], also returning the frame's stage times.
+    pub fn advance_frame_timed(
+        &mut self,
+        control: &Control<'_>,
+    ) -> Result<(FrameStats, StageTimes), SimError> {
+        let start = Instant::now();
+        let mut acc = FrameAccumulator::default();
+        let frame_dt = self.scene.frame_dt();
+        let target = (self.frame + 1) as Real * frame_dt;
+        match self.scene.solver.stepping {
+            TimeStepping::Fixed { substeps } => {
+                let h = frame_dt / substeps as Real;
+                for _ in 0..substeps {
+                    self.check_cancel(control)?;
+                    let r = self.step(h)?;
+                    acc.add(&r, h);
+                }
+            }
+            TimeStepping::Adaptive { max_level } => {
+                self.advance_adaptive(control, max_level, &mut acc)?;
+            }
+        }
+        // Land exactly on the frame time despite summed round-off.
+        self.state.time = target;
+        self.frame += 1;
+        let mut stats = self.snapshot_stats();
+        stats.steps = acc.steps;
+        stats.cg_iterations = acc.iterations;
+        stats.cg_iterations_max = acc.iterations_max;
+        stats.unconverged_solves = acc.unconverged;
+        stats.collision_seconds = acc.times.collision;
+        stats.step_seconds = start.elapsed().as_secs_f64();
+        stats.dt = acc.last_h;
+        if let Some(p) = control.progress {
+            p(Progress {
+                frame: self.frame,
+                frames: self.scene.frames,
+                steps: self.steps,
+                time: self.state.time,
+            });
+        }
+        Ok((stats, acc.times))
+    }
+
+    /// Steps of `frame_dt / 2^level` until the frame is covered: a step is
+    /// redone at half size when its solve fails, it produces non-finite
+    /// numbers, or it stretches an edge past [`ADAPTIVE_MAX_STRETCH`]; after
+    /// [`ADAPTIVE_GROW_AFTER`] good steps the size doubles where that stays
+    /// aligned with the frame.
+    fn advance_adaptive(
+        &mut self,
+        control: &Control<'_>,
+        max_level: u32,
+        acc: &mut FrameAccumulator,
+    ) -> Result<(), SimError> {
+        let frame_dt = self.scene.frame_dt();
+        // The frame in units of the finest step.
+        let units: u64 = 1 << max_level;
+        let mut done: u64 = 0;
+        while done < units {
+            self.check_cancel(control)?;
+            let h = frame_dt / (1u64 << self.level) as Real;
+            let backup = self.state.clone();
+            let result = self.step(h);
+            let ok = match &result {
+                Ok(r) => {
+                    r.solve.status == SolveStatus::Converged
+                        && self.model.stretch.max_ratio(&self.state.x) <= ADAPTIVE_MAX_STRETCH
+                }
+                Err(_) => false,
+            };
+            if !ok && self.level < max_level {
+                self.state = backup;
+                self.integrator.reset_warm_start();
+                self.level += 1;
+                self.easy_steps = 0;
+                if result.is_ok() {
+                    self.steps -= 1; // the rejected step does not count
+                }
+                continue;
+            }
+            let r = result?;
+            acc.add(&r, h);
+            done += 1 << (max_level - self.level);
+            self.easy_steps += 1;
+            let coarser = 1u64 << (max_level - self.level + 1);
+            if self.easy_steps >= ADAPTIVE_GROW_AFTER && self.level > 0 && done % coarser == 0 {
+                self.level -= 1;
+                self.easy_steps = 0;
+            }
+        }
+        Ok(())
+    }
+
+    fn check_cancel(&self, control: &Control<'_>) -> Result<(), SimError> {
+        if control.is_cancelled() {
+            Err(SimError::Cancelled { step: self.steps })
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Runs every remaining frame, handing each to `on_frame` (frame 0
+    /// first if nothing has run yet) and recording it in `rec`. On error the
+    /// recorder still holds every finished frame, so the caller can report
+    /// them.
+    pub fn run<E: std::fmt::Display>(
+        &mut self,
+        control: &Control<'_>,
+        rec: &mut StatsRecorder,
+        mut on_frame: impl FnMut(&Self, &FrameStats) -> Result<(), E>,
+    ) -> Result<(), SimError> {
+        if self.frame == 0 && self.steps == 0 {
+            let s = self.snapshot_stats();
+            on_frame(self, &s).map_err(|e| SimError::Output(e.to_string()))?;
+            rec.record(s, &StageTimes::default());
+        }
+        while !self.is_done() {
+            let (s, times) = match self.advance_frame_timed(control) {
+                Ok(r) => r,
+                Err(e) => {
+                    if matches!(e, SimError::NonFinite { .. }) {
+                        rec.mark_non_finite();
+                    }
+                    return Err(e);
+                }
+            };
+            on_frame(self, &s).map_err(|e| SimError::Output(e.to_string()))?;
+            rec.record(s, &times);
+        }
+        Ok(())
+    }
+
+    /// A fresh recorder for this simulation's run.
+    pub fn recorder(&self) -> StatsRecorder {
+        StatsRecorder::new(&self.scene.name, self.grid.len())
+    }
+}
+
+/// Sums step reports within a frame.
+#[derive(Debug, Default)]
+struct FrameAccumulator {
+    steps: usize,
+    iterations: usize,
+    iterations_max: usize,
+    unconverged: usize,
+    times: StageTimes,
+    last_h: Real,
+}
+
+impl FrameAccumulator {
+    fn add(&mut self, r: &StepReport, h: Real) {
+        self.steps += 1;
+        self.iterations += r.solve.iterations;
+        self.iterations_max = self.iterations_max.max(r.solve.iterations);
+        self.unconverged += usize::from(r.solve.status != SolveStatus::Converged);
+        self.times.add(&r.times);
+        self.last_h = h;
+    }
+}

@@ -1,0 +1,161 @@
+//! Per-frame and whole-run statistics: the fields of DESIGN.md's
+//! `stats.json`, plus stage timings.
+
+use serde::Serialize;
+
+use crate::solver::StageTimes;
+
+/// One output frame's statistics.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameStats {
+    /// Frame index (0 is the initial state).
+    pub frame: usize,
+    /// Simulated time of the frame.
+    pub time: f64,
+    /// Steps taken since the previous frame.
+    pub steps: usize,
+    /// CG iterations summed over those steps.
+    pub cg_iterations: usize,
+    /// Largest CG iteration count of one step.
+    pub cg_iterations_max: usize,
+    /// Steps whose solve stopped before the tolerance.
+    pub unconverged_solves: usize,
+    /// Particles in contact at the end of the frame.
+    pub contacts: usize,
+    /// Contacts made during the frame.
+    pub new_contacts: usize,
+    /// Contacts released during the frame.
+    pub released_contacts: usize,
+    /// BVH nodes visited during the frame.
+    pub nodes_visited: u64,
+    /// Collision stage wall time during the frame, seconds.
+    pub collision_seconds: f64,
+    /// Wall time of the frame's steps, seconds.
+    pub step_seconds: f64,
+    /// Kinetic energy at the frame, J.
+    pub kinetic_energy: f64,
+    /// Largest edge length / rest length at the frame.
+    pub max_stretch: f64,
+    /// Smallest signed distance of a particle to a true obstacle surface at
+    /// the frame (negative inside); `None` without obstacles.
+    pub min_signed_distance: Option<f64>,
+    /// Last step size used, seconds.
+    pub dt: f64,
+}
+
+/// A whole run's statistics (`stats.json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunStats {
+    /// Scene name.
+    pub name: String,
+    /// Particles in the cloth.
+    pub particles: usize,
+    /// Frames written, including frame 0.
+    pub frames: usize,
+    /// Steps taken.
+    pub steps: usize,
+    /// Wall time of the run, seconds.
+    pub wall_seconds: f64,
+    /// Simulated time, seconds.
+    pub sim_seconds: f64,
+    /// CG iterations over the run.
+    pub cg_iterations_total: usize,
+    /// Largest CG iteration count of one step.
+    pub cg_iterations_max: usize,
+    /// Steps whose solve stopped before the tolerance.
+    pub unconverged_solves: usize,
+    /// Collision stage wall time, seconds.
+    pub collision_seconds: f64,
+    /// `collision_seconds` / time in steps.
+    pub collision_fraction: f64,
+    /// Most particles in contact at a frame.
+    pub contacts_max: usize,
+    /// Smallest signed distance to a true obstacle surface over all frames
+    /// (negative = inside); `None` without obstacles.
+    pub min_signed_distance: Option<f64>,
+    /// Largest edge length / rest length at the last frame.
+    pub max_stretch: f64,
+    /// Largest edge length / rest length over all frames.
+    pub max_stretch_any_frame: f64,
+    /// No NaN or infinity ever appeared.
+    pub finite: bool,
+    /// Wall time per stage, seconds.
+    pub stage_seconds: StageTimes,
+    /// Each frame's statistics.
+    pub per_frame: Vec<FrameStats>,
+}
+
+/// Accumulates frame statistics into run statistics.
+#[derive(Debug, Clone)]
+pub struct StatsRecorder {
+    stats: RunStats,
+    step_seconds: f64,
+}
+
+impl StatsRecorder {
+    /// An empty record for a run named `name` on `particles` particles.
+    pub fn new(name: &str, particles: usize) -> Self {
+        Self {
+            stats: RunStats {
+                name: name.to_owned(),
+                particles,
+                frames: 0,
+                steps: 0,
+                wall_seconds: 0.0,
+                sim_seconds: 0.0,
+                cg_iterations_total: 0,
+                cg_iterations_max: 0,
+                unconverged_solves: 0,
+                collision_seconds: 0.0,
+                collision_fraction: 0.0,
+                contacts_max: 0,
+                min_signed_distance: None,
+                max_stretch: 0.0,
+                max_stretch_any_frame: 0.0,
+                finite: true,
+                stage_seconds: StageTimes::default(),
+                per_frame: Vec::new(),
+            },
+            step_seconds: 0.0,
+        }
+    }
+
+    /// Adds a frame and the stage times of its steps.
+    pub fn record(&mut self, f: FrameStats, stages: &StageTimes) {
+        let s = &mut self.stats;
+        s.frames += 1;
+        s.steps += f.steps;
+        s.sim_seconds = f.time;
+        s.cg_iterations_total += f.cg_iterations;
+        s.cg_iterations_max = s.cg_iterations_max.max(f.cg_iterations_max);
+        s.unconverged_solves += f.unconverged_solves;
+        s.collision_seconds += f.collision_seconds;
+        s.contacts_max = s.contacts_max.max(f.contacts);
+        s.min_signed_distance = match (s.min_signed_distance, f.min_signed_distance) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        s.max_stretch = f.max_stretch;
+        s.max_stretch_any_frame = s.max_stretch_any_frame.max(f.max_stretch);
+        s.stage_seconds.add(stages);
+        self.step_seconds += f.step_seconds;
+        s.per_frame.push(f);
+    }
+
+    /// Marks the run as having produced non-finite numbers.
+    pub fn mark_non_finite(&mut self) {
+        self.stats.finite = false;
+    }
+
+    /// The statistics so far, with `wall_seconds` for the whole run.
+    pub fn finish(&self, wall_seconds: f64) -> RunStats {
+        let mut s = self.stats.clone();
+        s.wall_seconds = wall_seconds;
+        s.collision_fraction = if self.step_seconds > 0.0 {
+            s.collision_seconds / self.step_seconds
+        } else {
+            0.0
+        };
+        s
+    }
+}

@@ -1,0 +1,185 @@
+//! The spec as users write it (DESIGN.md "Job spec (version 1)").
+//!
+//! Every struct rejects unknown fields so a misspelt key is an error, not a
+//! silently ignored setting.
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::material::MaterialSpec;
+use super::obstacle::Obstacle;
+
+/// A whole job: one cloth, its material, the obstacles, and how to solve.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Spec {
+    /// Free-form name, echoed in outputs.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// The particle grid.
+    pub cloth: ClothSpec,
+    /// A preset name or explicit physical parameters.
+    pub material: MaterialSpec,
+    /// Rigid obstacles; empty means no collision stage at all.
+    #[serde(default)]
+    pub obstacles: Vec<Obstacle>,
+    /// Gravitational acceleration in m/s²; Z is up by default.
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Simulated time in seconds.
+    pub duration: f64,
+    /// Output frames per simulated second.
+    pub fps: f64,
+    /// Time stepping and linear solver settings.
+    #[serde(default)]
+    pub solver: SolverSpec,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+
+/// A grid particle `[i, j]` held in place.
+pub type Pin = [u32; 2];
+
+/// The cloth as a rectangular grid of particles at thread crossings (§1).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClothSpec {
+    /// `[nu, nv]`: particles along `u` and along `v`.
+    pub grid: [u32; 2],
+    /// `[length along u, length along v]` in metres.
+    pub size: [f64; 2],
+    /// Position of particle `(0, 0)`.
+    #[serde(default)]
+    pub origin: [f64; 3],
+    /// Warp direction; default `[1, 0, 0]`.
+    #[serde(default)]
+    pub u: Option<[f64; 3]>,
+    /// Weft direction; default `[0, 1, 0]`.
+    #[serde(default)]
+    pub v: Option<[f64; 3]>,
+    /// Particles held in place.
+    #[serde(default)]
+    pub pinned: Vec<Pin>,
+}
+
+/// Solver settings; every field has a default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    /// Fixed step in seconds, or `"adaptive"`.
+    #[serde(default)]
+    pub dt: TimeStep,
+    /// Relative residual at which the modified PCG stops.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Iteration cap of the modified PCG.
+    #[serde(default = "default_max_iterations")]
+    pub max_iterations: u32,
+    /// Which preconditioner the PCG uses.
+    #[serde(default)]
+    pub preconditioner: PreconditionerKind,
+    /// Start each solve from the previous step's velocity change.
+    #[serde(default = "yes")]
+    pub warm_start: bool,
+    /// Run the collision stage (a benchmark may turn it off).
+    #[serde(default = "yes")]
+    pub collision: bool,
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        Self {
+            dt: TimeStep::default(),
+            tolerance: default_tolerance(),
+            max_iterations: default_max_iterations(),
+            preconditioner: PreconditionerKind::default(),
+            warm_start: true,
+            collision: true,
+        }
+    }
+}
+
+fn default_tolerance() -> f64 {
+    1e-5
+}
+fn default_max_iterations() -> u32 {
+    1000
+}
+fn yes() -> bool {
+    true
+}
+
+/// Preconditioners the PCG can use (method.md §2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PreconditionerKind {
+    /// Inverse of the scalar diagonal.
+    Jacobi,
+    /// Inverse of each particle's 3x3 diagonal block.
+    #[default]
+    BlockJacobi,
+}
+
+/// Which Jacobian the force terms produce.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum JacobianMode {
+    /// `-df/dx` made symmetric positive semi-definite (what the solver uses).
+    #[default]
+    Solver,
+    /// The exact derivatives, indefinite and (for damping) unsymmetric; for
+    /// finite-difference tests.
+    Exact,
+}
+
+/// A fixed step or the adaptive controller.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TimeStep {
+    /// Fixed step size in seconds (rounded so frames fall on steps).
+    Fixed(f64),
+    /// Steps halve on trouble and grow back when the solve is easy.
+    Adaptive,
+}
+
+impl Default for TimeStep {
+    fn default() -> Self {
+        TimeStep::Fixed(1.0 / 240.0)
+    }
+}
+
+impl Serialize for TimeStep {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            TimeStep::Fixed(dt) => s.serialize_f64(*dt),
+            TimeStep::Adaptive => s.serialize_str("adaptive"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for TimeStep {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = TimeStep;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a step in seconds or \"adaptive\"")
+            }
+            fn visit_f64<E: serde::de::Error>(self, x: f64) -> Result<TimeStep, E> {
+                Ok(TimeStep::Fixed(x))
+            }
+            fn visit_u64<E: serde::de::Error>(self, x: u64) -> Result<TimeStep, E> {
+                Ok(TimeStep::Fixed(x as f64))
+            }
+            fn visit_i64<E: serde::de::Error>(self, x: i64) -> Result<TimeStep, E> {
+                Ok(TimeStep::Fixed(x as f64))
+            }
+            fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<TimeStep, E> {
+                match s {
+                    "adaptive" => Ok(TimeStep::Adaptive),
+                    other => Err(E::invalid_value(serde::de::Unexpected::Str(other), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}

@@ -1,0 +1,49 @@
+//! Helpers for the scenario tests.
+#![allow(dead_code)]
+
+use drapery_sim::math::Vec3;
+use drapery_sim::sim::{Control, Simulation};
+use drapery_sim::spec::{Limits, Scene, Spec};
+
+pub fn scene_from_json(json: &str) -> Scene {
+    let spec: Spec = serde_json::from_str(json).expect("spec parses");
+    spec.validate(&Limits::default()).expect("spec validates")
+}
+
+pub fn shared_path(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/scenes")
+        .join(name)
+}
+
+pub fn shared_spec(name: &str) -> Spec {
+    let path = shared_path(name);
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).expect("shared scene parses")
+}
+
+pub fn shared_scene(name: &str) -> Scene {
+    shared_spec(name)
+        .validate(&Limits::default())
+        .expect("shared scene validates")
+}
+
+/// Runs to the end, returning positions at every frame.
+pub fn run_frames(sim: &mut Simulation) -> Vec<Vec<Vec3>> {
+    let mut frames = vec![sim.state().x.clone()];
+    while !sim.is_done() {
+        sim.advance_frame(&Control::default())
+            .expect("run succeeds");
+        frames.push(sim.state().x.clone());
+    }
+    frames
+}
+
+pub fn center_of_mass(x: &[Vec3], m: &[f64]) -> Vec3 {
+    let total: f64 = m.iter().sum();
+    x.iter().zip(m).map(|(x, m)| x * *m).sum::<Vec3>() / total
+}
+
+pub fn lowest_z(x: &[Vec3]) -> f64 {
+    x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min)
+}

@@ -1,0 +1,175 @@
+//! `drapery run SPEC --out DIR`: simulate one job and write its frames and
+//! `stats.json` (DESIGN.md "Command line").
+//!
+//! Frames are written as they are produced, so memory does not grow with
+//! the run's length; `stats.json` is written even when the run fails, with
+//! `finite: false` and the error, so a failed run still explains itself.
+
+use std::fs::{self, File};
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use drapery_sim::export::{Pc2Writer, write_obj};
+use drapery_sim::sim::{Control, Progress, Simulation};
+use drapery_sim::spec::Limits;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::cli::{Format, RunArgs};
+use crate::specfile;
+
+/// Runs the job; exit 2 for an invalid spec, 1 for a failed run.
+pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
+    let text = super::read_spec(&args.spec)?;
+    let scene = match specfile::load(&text, &Limits::default()) {
+        Ok(s) => s,
+        Err(e) => {
+            for err in e.errors() {
+                eprintln!("{err}");
+            }
+            return Ok(ExitCode::from(2));
+        }
+    };
+    let mut sim = Simulation::new(&scene)?;
+    fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let triangles = sim.grid().triangles();
+
+    let bar = progress_bar(args.quiet, scene.frames as u64);
+    let on_progress = |p: Progress| bar.set_position(p.frame as u64);
+    let control = Control {
+        cancel: None,
+        progress: Some(&on_progress),
+    };
+
+    let mut sink = FrameSink::open(
+        args.format,
+        &args.out,
+        &sim.grid().rest,
+        scene.frames + 1,
+        &triangles,
+    )?;
+    let start = Instant::now();
+    let mut rec = sim.recorder();
+    let outcome = sim.run(&control, &mut rec, |s, stats| {
+        sink.write(stats.frame, &s.state().x)
+    });
+    let outcome = outcome
+        .map_err(anyhow::Error::from)
+        .and_then(|()| sink.finish());
+    bar.finish_and_clear();
+
+    let stats = rec.finish(start.elapsed().as_secs_f64());
+    let mut json = serde_json::to_value(&stats)?;
+    if let Err(e) = &outcome {
+        json["error"] = serde_json::Value::String(format!("{e:#}"));
+    }
+    let stats_path = args.out.join("stats.json");
+    fs::write(&stats_path, serde_json::to_vec_pretty(&json)?)
+        .with_context(|| format!("writing {}", stats_path.display()))?;
+
+    match outcome {
+        Ok(()) => {
+            eprintln!(
+                "{}: {} frames, {} steps, {} CG iterations in {:.3} s; max stretch {:.4}; wrote {}",
+                stats.name,
+                stats.frames,
+                stats.steps,
+                stats.cg_iterations_total,
+                stats.wall_seconds,
+                stats.max_stretch,
+                args.out.display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+fn progress_bar(quiet: bool, frames: u64) -> ProgressBar {
+    // indicatif draws to stderr and hides itself when that is not a terminal.
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(frames);
+    if let Ok(style) = ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} frames (eta {eta})",
+    ) {
+        bar.set_style(style);
+    }
+    bar
+}
+
+/// Where frames go, by format.
+enum FrameSink<'a> {
+    Obj {
+        dir: &'a Path,
+        triangles: &'a [[u32; 3]],
+    },
+    Pc2(Pc2Writer<BufWriter<File>>),
+}
+
+impl<'a> FrameSink<'a> {
+    fn open(
+        format: Format,
+        out: &'a Path,
+        rest: &[drapery_sim::math::Vec3],
+        frames: usize,
+        triangles: &'a [[u32; 3]],
+    ) -> anyhow::Result<Self> {
+        match format {
+            Format::Obj => {
+                let dir = out.join("frames");
+                fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+                Ok(FrameSink::Obj {
+                    dir: out,
+                    triangles,
+                })
+            }
+            Format::Pc2 => {
+                // The cache holds positions only; the topology goes beside it.
+                let mut mesh = BufWriter::new(
+                    File::create(out.join("cloth.obj")).context("creating cloth.obj")?,
+                );
+                write_obj(&mut mesh, rest, triangles)?;
+                mesh.flush()?;
+                let points = rest.len();
+                let file = File::create(out.join("cloth.pc2")).context("creating cloth.pc2")?;
+                Ok(FrameSink::Pc2(Pc2Writer::new(
+                    BufWriter::new(file),
+                    points,
+                    frames,
+                )?))
+            }
+        }
+    }
+
+    fn write(&mut self, frame: usize, x: &[drapery_sim::math::Vec3]) -> anyhow::Result<()> {
+        match self {
+            FrameSink::Obj { dir, triangles } => {
+                let path = dir.join("frames").join(format!("frame_{frame:05}.obj"));
+                let mut w = BufWriter::new(
+                    File::create(&path).with_context(|| format!("creating {}", path.display()))?,
+                );
+                write_obj(&mut w, x, triangles)?;
+                w.flush()?;
+                Ok(())
+            }
+            FrameSink::Pc2(w) => Ok(w.write_frame(x)?),
+        }
+    }
+
+    fn finish(self) -> anyhow::Result<()> {
+        match self {
+            FrameSink::Obj { .. } => Ok(()),
+            FrameSink::Pc2(w) => {
+                w.finish()?;
+                Ok(())
+            }
+        }
+    }
+}

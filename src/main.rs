@@ -1,0 +1,23 @@
+//! `drapery`: the command line. Parses arguments, sets up logging, and hands
+//! off to a command; nothing else lives here.
+
+use clap::Parser;
+
+use drapery::cli::{Cli, Command};
+use drapery::commands;
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    drapery::logging::init(cli.log_json);
+    let result = match cli.command {
+        Command::Run(args) => commands::run::run(&args),
+        Command::Validate(args) => commands::validate::run(&args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

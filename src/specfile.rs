@@ -1,0 +1,140 @@
+//! Reading job specs from JSON with errors that name the field.
+//!
+//! Parse errors (malformed JSON, wrong types, unknown fields) come from
+//! serde with the path tracked by `serde_path_to_error`; rule violations
+//! come from [`Spec::validate`]. Both end as [`SpecErrors`].
+
+use drapery_sim::spec::{Limits, Scene, Spec, SpecError, SpecErrors};
+
+/// Why a spec was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecLoadError {
+    /// Not JSON at all (syntax error, truncated input).
+    #[error("malformed JSON: {0}")]
+    Malformed(String),
+    /// JSON, but not a valid spec.
+    #[error("{0}")]
+    Invalid(SpecErrors),
+}
+
+impl SpecLoadError {
+    /// The errors, each with its path; a malformed document has one at the
+    /// root.
+    pub fn errors(&self) -> Vec<SpecError> {
+        match self {
+            SpecLoadError::Malformed(m) => vec![SpecError {
+                path: String::new(),
+                message: format!("malformed JSON: {m}"),
+            }],
+            SpecLoadError::Invalid(e) => e.0.clone(),
+        }
+    }
+}
+
+/// Parses `text` into a [`Spec`] (no rule checks yet).
+pub fn parse(text: &str) -> Result<Spec, SpecLoadError> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    match serde_path_to_error::deserialize::<_, Spec>(de) {
+        Ok(spec) => Ok(spec),
+        Err(e) => {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            if inner.is_syntax() || inner.is_eof() || inner.is_io() {
+                return Err(SpecLoadError::Malformed(inner.to_string()));
+            }
+            Err(SpecLoadError::Invalid(SpecErrors(vec![SpecError {
+                path: if path == "." { String::new() } else { path },
+                message: inner.to_string(),
+            }])))
+        }
+    }
+}
+
+/// Parses and validates `text` under `limits`.
+pub fn load(text: &str, limits: &Limits) -> Result<Scene, SpecLoadError> {
+    parse(text)?
+        .validate(limits)
+        .map_err(SpecLoadError::Invalid)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn errors(text: &str) -> Vec<SpecError> {
+        load(text, &Limits::default())
+            .expect_err("must be refused")
+            .errors()
+    }
+
+    const OK: &str = r#"{"cloth": {"grid": [3, 3], "size": [1, 1]}, "material": "cotton", "duration": 1, "fps": 10}"#;
+
+    #[test]
+    fn accepts_a_minimal_spec() {
+        let scene = load(OK, &Limits::default()).expect("valid");
+        assert_eq!(scene.frames, 10);
+    }
+
+    #[test]
+    fn malformed_json_is_reported_as_such() {
+        let e = errors(r#"{"cloth": "#);
+        assert!(e[0].message.starts_with("malformed JSON"), "{e:?}");
+    }
+
+    #[test]
+    fn unknown_fields_and_wrong_types_name_the_field() {
+        let e = errors(&OK.replace(r#""size""#, r#""colour": 1, "size""#));
+        assert!(
+            e[0].path == "cloth" && e[0].message.contains("colour"),
+            "{e:?}"
+        );
+        let e = errors(&OK.replace("[3, 3]", "[3, -1]"));
+        assert_eq!(e[0].path, "cloth.grid[1]", "{e:?}");
+        let e = errors(&OK.replace(r#""cotton""#, r#"{"density": 0.1, "stretch": "x"}"#));
+        assert_eq!(e[0].path, "material.stretch", "{e:?}");
+    }
+
+    #[test]
+    fn every_rule_violation_is_reported_with_its_path() {
+        let bad = r#"{"cloth": {"grid": [1, 3], "size": [0, 1], "pinned": [[5, 0]]},
+            "material": {"density": -1, "stretch": 100, "shear": 1, "bend": 1e-5},
+            "obstacles": [{"sphere": {"center": [0,0,0], "radius": 1}, "plane": {"point": [0,0,0], "normal": [0,0,0]}}],
+            "duration": 1e9, "fps": 30, "solver": {"dt": 0, "tolerance": 2}}"#;
+        let e = errors(bad);
+        let paths: Vec<&str> = e.iter().map(|e| e.path.as_str()).collect();
+        for want in [
+            "cloth.grid[0]",
+            "cloth.size[0]",
+            "cloth.pinned[0][0]",
+            "material.density",
+            "obstacles[0]",
+            "obstacles[0].plane.normal",
+            "duration",
+            "solver.tolerance",
+        ] {
+            assert!(paths.contains(&want), "missing {want} in {paths:?}");
+        }
+        let grid = e
+            .iter()
+            .find(|e| e.path == "cloth.grid[0]")
+            .expect("grid error");
+        assert_eq!(grid.to_string(), "cloth.grid[0]: must be >= 2");
+    }
+
+    #[test]
+    fn absurd_sizes_are_refused_against_the_limits() {
+        let e = errors(&OK.replace("[3, 3]", "[100000, 100000]"));
+        assert!(
+            e[0].path == "cloth.grid" && e[0].message.contains("limit"),
+            "{e:?}"
+        );
+        let e = errors(&OK.replace("\"fps\": 10", "\"fps\": 10, \"solver\": {\"dt\": 1e-7}"));
+        assert!(e.iter().any(|e| e.path == "solver.dt"), "{e:?}");
+    }
+
+    #[test]
+    fn numbers_out_of_range_are_errors_not_infinities() {
+        let e = errors(&OK.replace("\"duration\": 1", "\"duration\": 1e999"));
+        assert!(!e.is_empty());
+    }
+}
