@@ -94,11 +94,12 @@ fn zero_g_cloth(seed: u64) -> Simulation {
             rng.random_range(-1.0..1.0),
         )
     };
-    let st = sim.state_mut();
+    let mut st = sim.state().clone();
     for i in 0..st.x.len() {
         st.x[i] += r() * 0.01;
         st.v[i] = r() * 0.5;
     }
+    sim.set_state(st);
     sim
 }
 

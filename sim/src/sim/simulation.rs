@@ -17,6 +17,12 @@ use crate::spec::{Scene, TimeStepping};
 /// Largest edge stretch an adaptive step may reach before it is redone at
 /// half the size; beyond 10 % a fabric is far outside its linear range.
 const ADAPTIVE_MAX_STRETCH: Real = 1.10;
+/// A fixed step that leaves an edge stretched past this is redone as two
+/// half steps (the user's bound: stretch under 2 %).
+const SUBDIVIDE_STRETCH: Real = 1.02;
+/// Halvings of one fixed step at most (a step becomes at most 16 steps).
+const SUBDIVIDE_MAX_DEPTH: u32 = 4;
+
 /// Accepted steps in a row before the adaptive controller tries a step
 /// twice as large.
 const ADAPTIVE_GROW_AFTER: u32 = 8;
@@ -30,6 +36,9 @@ pub struct Simulation {
     state: ClothState,
     integrator: Integrator,
     constraints: Constraints,
+    /// Where pinned particles are held: their positions when the run
+    /// started (or when the state was last replaced).
+    anchors: Vec<Vec3>,
     frame: usize,
     steps: usize,
     /// Adaptive stepping: current subdivision level and run of easy steps.
@@ -46,7 +55,7 @@ impl Simulation {
         let integrator = Integrator::new(
             n,
             &model,
-            make_preconditioner(scene.solver.preconditioner),
+            make_preconditioner(scene.solver.preconditioner, grid.nu, grid.nv),
             MpcgOptions {
                 tolerance: scene.solver.tolerance,
                 max_iterations: scene.solver.max_iterations,
@@ -59,6 +68,7 @@ impl Simulation {
             x: grid.rest.clone(),
             v: vec![Vec3::zeros(); n],
         };
+        let anchors = scene.cloth.pinned.iter().map(|&i| grid.rest[i]).collect();
         let level = match scene.solver.stepping {
             TimeStepping::Fixed { .. } => 0,
             // Start near 1/240 s and let the controller find its way.
@@ -73,6 +83,7 @@ impl Simulation {
             state,
             integrator,
             constraints: Constraints::free(n),
+            anchors,
             frame: 0,
             steps: 0,
             level,
@@ -100,11 +111,24 @@ impl Simulation {
         &self.state
     }
 
-    /// Mutable state, to start from a configuration other than the flat
-    /// grid (tests, checkpoints).
-    pub fn state_mut(&mut self) -> &mut ClothState {
+    /// Replaces the state, to start from a configuration other than the
+    /// flat grid (tests, checkpoints). Pins are re-anchored where the new
+    /// state puts them.
+    pub fn set_state(&mut self, state: ClothState) {
+        assert_eq!(
+            state.x.len(),
+            self.grid.len(),
+            "state has the wrong particle count"
+        );
+        self.anchors = self
+            .scene
+            .cloth
+            .pinned
+            .iter()
+            .map(|&i| state.x[i])
+            .collect();
+        self.state = state;
         self.integrator.reset_warm_start();
-        &mut self.state
     }
 
     /// Index of the last finished frame (0 before any step).
@@ -141,6 +165,7 @@ impl Simulation {
             cg_iterations: 0,
             cg_iterations_max: 0,
             unconverged_solves: 0,
+            subdivided_steps: 0,
             contacts: 0,
             new_contacts: 0,
             released_contacts: 0,
@@ -157,9 +182,9 @@ impl Simulation {
     /// Fills the constraints of this step: pins hold their rest position.
     fn constrain(&mut self) {
         self.constraints.clear();
-        for &i in &self.scene.cloth.pinned {
+        for (&i, anchor) in self.scene.cloth.pinned.iter().zip(&self.anchors) {
             let dv = -self.state.v[i];
-            let y = self.grid.rest[i] - self.state.x[i];
+            let y = anchor - self.state.x[i];
             self.constraints.fix(i, dv, y);
         }
     }
@@ -207,8 +232,7 @@ impl Simulation {
                 let h = frame_dt / substeps as Real;
                 for _ in 0..substeps {
                     self.check_cancel(control)?;
-                    let r = self.step(h)?;
-                    acc.add(&r, h);
+                    self.guarded_step(h, 0, &mut acc)?;
                 }
             }
             TimeStepping::Adaptive { max_level } => {
@@ -223,6 +247,7 @@ impl Simulation {
         stats.cg_iterations = acc.iterations;
         stats.cg_iterations_max = acc.iterations_max;
         stats.unconverged_solves = acc.unconverged;
+        stats.subdivided_steps = acc.subdivided;
         stats.collision_seconds = acc.times.collision;
         stats.step_seconds = start.elapsed().as_secs_f64();
         stats.dt = acc.last_h;
@@ -235,6 +260,37 @@ impl Simulation {
             });
         }
         Ok((stats, acc.times))
+    }
+
+    /// A fixed step of `h`, redone as two half steps (recursively, up to
+    /// [`SUBDIVIDE_MAX_DEPTH`]) when it stretches an edge past
+    /// [`SUBDIVIDE_STRETCH`]: a long step through a fast swing (a free edge
+    /// whipping round) is where one implicit step overshoots, and the
+    /// halves resolve it. Ordinary steps pay one O(springs) check.
+    fn guarded_step(
+        &mut self,
+        h: Real,
+        depth: u32,
+        acc: &mut FrameAccumulator,
+    ) -> Result<(), SimError> {
+        let before = self.model.stretch.max_ratio(&self.state.x);
+        let backup = (depth < SUBDIVIDE_MAX_DEPTH).then(|| self.state.clone());
+        let r = self.step(h)?;
+        let after = self.model.stretch.max_ratio(&self.state.x);
+        match backup {
+            Some(state) if after > SUBDIVIDE_STRETCH && after > before => {
+                self.state = state;
+                self.steps -= 1;
+                self.integrator.reset_warm_start();
+                acc.subdivided += 1;
+                self.guarded_step(h / 2.0, depth + 1, acc)?;
+                self.guarded_step(h / 2.0, depth + 1, acc)
+            }
+            _ => {
+                acc.add(&r, h);
+                Ok(())
+            }
+        }
     }
 
     /// Steps of `frame_dt / 2^level` until the frame is covered: a step is
@@ -339,6 +395,7 @@ struct FrameAccumulator {
     iterations: usize,
     iterations_max: usize,
     unconverged: usize,
+    subdivided: usize,
     times: StageTimes,
     last_h: Real,
 }

@@ -20,6 +20,8 @@ pub struct FrameStats {
     pub cg_iterations_max: usize,
     /// Steps whose solve stopped before the tolerance.
     pub unconverged_solves: usize,
+    /// Fixed steps redone as two halves because they overstretched.
+    pub subdivided_steps: usize,
     /// Particles in contact at the end of the frame.
     pub contacts: usize,
     /// Contacts made during the frame.
@@ -64,6 +66,8 @@ pub struct RunStats {
     pub cg_iterations_max: usize,
     /// Steps whose solve stopped before the tolerance.
     pub unconverged_solves: usize,
+    /// Fixed steps redone as two halves because they overstretched.
+    pub subdivided_steps: usize,
     /// Collision stage wall time, seconds.
     pub collision_seconds: f64,
     /// `collision_seconds` / time in steps.
@@ -106,6 +110,7 @@ impl StatsRecorder {
                 cg_iterations_total: 0,
                 cg_iterations_max: 0,
                 unconverged_solves: 0,
+                subdivided_steps: 0,
                 collision_seconds: 0.0,
                 collision_fraction: 0.0,
                 contacts_max: 0,
@@ -129,6 +134,7 @@ impl StatsRecorder {
         s.cg_iterations_total += f.cg_iterations;
         s.cg_iterations_max = s.cg_iterations_max.max(f.cg_iterations_max);
         s.unconverged_solves += f.unconverged_solves;
+        s.subdivided_steps += f.subdivided_steps;
         s.collision_seconds += f.collision_seconds;
         s.contacts_max = s.contacts_max.max(f.contacts);
         s.min_signed_distance = match (s.min_signed_distance, f.min_signed_distance) {

@@ -8,7 +8,7 @@
 //!
 //! Pins fill these now; obstacle contacts will fill the same arrays.
 
-use crate::math::{Real, Vec3};
+use crate::math::{Mat3, Real, Vec3};
 
 /// The filter `S_i`: which directions of particle `i` the solve may change.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -56,6 +56,16 @@ impl Filter {
             Filter::Plane(n) => v - n * n.dot(v),
             Filter::Line(d) => d * d.dot(v),
             Filter::Fixed => Vec3::zeros(),
+        }
+    }
+
+    /// `S` as a matrix.
+    pub fn matrix(&self) -> Mat3 {
+        match self {
+            Filter::Free => Mat3::identity(),
+            Filter::Plane(n) => Mat3::identity() - n * n.transpose(),
+            Filter::Line(d) => d * d.transpose(),
+            Filter::Fixed => Mat3::zeros(),
         }
     }
 

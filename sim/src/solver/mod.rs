@@ -17,8 +17,10 @@
 //! - [`Integrator`]: one step, with its reusable workspace.
 
 mod assemble;
+mod banded;
 mod bsr;
 mod constraints;
+mod lines;
 pub mod mpcg;
 mod precond;
 mod step;
@@ -26,6 +28,7 @@ mod step;
 pub use assemble::{AssemblyInput, System};
 pub use bsr::BlockCsr;
 pub use constraints::{Constraints, Filter};
+pub use lines::AlternatingLines;
 pub use mpcg::{MpcgOptions, MpcgWorkspace, Problem, SolveReport, SolveStatus};
 pub use precond::{BlockJacobi, Jacobi, Preconditioner, make_preconditioner};
 pub use step::{ClothState, Integrator, Physics, StageTimes, StepError, StepReport};

@@ -122,7 +122,7 @@ pub fn solve(
     for i in 0..n {
         ws.r[i] = s[i].apply(&(b[i] - ws.q[i]));
     }
-    precond.apply(&ws.r, &mut ws.c);
+    precond.apply(a, s, &ws.r, &mut ws.c);
     filter_in_place(s, &mut ws.c);
     let mut delta = dot(&ws.r, &ws.c);
     let mut rnorm = dot(&ws.r, &ws.r).sqrt();
@@ -148,7 +148,7 @@ pub fn solve(
             dv[i] += ws.c[i] * alpha;
             ws.r[i] -= ws.q[i] * alpha;
         }
-        precond.apply(&ws.r, &mut ws.s);
+        precond.apply(a, s, &ws.r, &mut ws.s);
         filter_in_place(s, &mut ws.s);
         let delta_new = dot(&ws.r, &ws.s);
         let beta = delta_new / delta;
@@ -237,7 +237,7 @@ mod tests {
             let precs: [Box<dyn Preconditioner>; 2] =
                 [Box::<Jacobi>::default(), Box::<BlockJacobi>::default()];
             for mut p in precs {
-                p.update(&a);
+                p.update(&a, &s);
                 let mut x = vec![Vec3::zeros(); n];
                 let opts = MpcgOptions {
                     tolerance: 1e-10,
@@ -296,7 +296,7 @@ mod tests {
             })
             .collect();
         let mut p = BlockJacobi::default();
-        p.update(&a);
+        p.update(&a, &s);
         // A warm start that violates the constraints must be corrected.
         let mut x = random_vec(n, &mut rng);
         let opts = MpcgOptions {
@@ -369,7 +369,7 @@ mod tests {
             identity.values[sl] = Mat3::identity();
         }
         let mut id = Jacobi::default();
-        id.update(&identity);
+        id.update(&identity, &s);
         let mut x = vec![Vec3::zeros(); n];
         let opts = MpcgOptions {
             tolerance: 1e-12,
@@ -396,7 +396,7 @@ mod tests {
         let a = random_spd(200, &mut rng);
         let b = random_vec(200, &mut rng);
         let mut p = Jacobi::default();
-        p.update(&a);
+        p.update(&a, &s);
         let mut x = vec![Vec3::zeros(); 200];
         let opts = MpcgOptions {
             tolerance: 1e-14,

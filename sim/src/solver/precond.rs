@@ -6,6 +6,8 @@
 //! preconditioner need not know about constraints.
 
 use super::bsr::BlockCsr;
+use super::constraints::Filter;
+use super::lines::AlternatingLines;
 use crate::math::{Mat3, Vec3};
 use crate::spec::PreconditionerKind;
 
@@ -13,17 +15,23 @@ use crate::spec::PreconditionerKind;
 pub trait Preconditioner: Send + std::fmt::Debug {
     /// A short name for reports.
     fn name(&self) -> &'static str;
-    /// Rebuilds from the newly assembled matrix.
-    fn update(&mut self, a: &BlockCsr);
-    /// Applies the (symmetric positive definite) approximate inverse.
-    fn apply(&self, r: &[Vec3], out: &mut [Vec3]);
+    /// Rebuilds from the newly assembled matrix and this step's filters.
+    fn update(&mut self, a: &BlockCsr, filter: &[Filter]);
+    /// Applies the (symmetric positive definite) approximate inverse of the
+    /// filtered matrix to `r`; `a` and `filter` are the ones of `update`.
+    fn apply(&self, a: &BlockCsr, filter: &[Filter], r: &[Vec3], out: &mut [Vec3]);
 }
 
-/// The preconditioner a spec asks for.
-pub fn make_preconditioner(kind: PreconditionerKind) -> Box<dyn Preconditioner> {
+/// The preconditioner a spec asks for, for an `nu x nv` grid.
+pub fn make_preconditioner(
+    kind: PreconditionerKind,
+    nu: usize,
+    nv: usize,
+) -> Box<dyn Preconditioner> {
     match kind {
         PreconditionerKind::Jacobi => Box::<Jacobi>::default(),
         PreconditionerKind::BlockJacobi => Box::<BlockJacobi>::default(),
+        PreconditionerKind::Lines => Box::new(AlternatingLines::new(nu, nv)),
     }
 }
 
@@ -38,7 +46,7 @@ impl Preconditioner for Jacobi {
         "jacobi"
     }
 
-    fn update(&mut self, a: &BlockCsr) {
+    fn update(&mut self, a: &BlockCsr, _filter: &[Filter]) {
         self.inv.clear();
         self.inv.extend((0..a.rows()).map(|i| {
             let d = a.diag_block(i).diagonal();
@@ -46,7 +54,7 @@ impl Preconditioner for Jacobi {
         }));
     }
 
-    fn apply(&self, r: &[Vec3], out: &mut [Vec3]) {
+    fn apply(&self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
         for ((o, r), d) in out.iter_mut().zip(r).zip(&self.inv) {
             *o = r.component_mul(d);
         }
@@ -66,10 +74,14 @@ impl Preconditioner for BlockJacobi {
         "block_jacobi"
     }
 
-    fn update(&mut self, a: &BlockCsr) {
+    fn update(&mut self, a: &BlockCsr, filter: &[Filter]) {
         self.inv.clear();
         self.inv.extend((0..a.rows()).map(|i| {
-            let d = a.diag_block(i);
+            // Invert S A_ii S + (I - S) d: exact on the free directions.
+            let s = filter[i].matrix();
+            let raw = a.diag_block(i);
+            let d = s * raw * s + (Mat3::identity() - s) * (raw.trace().abs() / 3.0);
+            let d = &d;
             // NOTE: A's diagonal blocks are SPD (mass plus PSD terms); the
             // scalar fallback only guards against a singular block.
             d.try_inverse().unwrap_or_else(|| {
@@ -78,7 +90,7 @@ impl Preconditioner for BlockJacobi {
         }));
     }
 
-    fn apply(&self, r: &[Vec3], out: &mut [Vec3]) {
+    fn apply(&self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
         for ((o, r), m) in out.iter_mut().zip(r).zip(&self.inv) {
             *o = m * r;
         }

@@ -117,8 +117,11 @@ pub enum PreconditionerKind {
     /// Inverse of the scalar diagonal.
     Jacobi,
     /// Inverse of each particle's 3x3 diagonal block.
-    #[default]
     BlockJacobi,
+    /// Exact solves along every warp and weft line, in a symmetric
+    /// alternating Gauss–Seidel sweep.
+    #[default]
+    Lines,
 }
 
 /// Which Jacobian the force terms produce.
