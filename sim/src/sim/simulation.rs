@@ -18,8 +18,12 @@ use crate::spec::{Scene, TimeStepping};
 /// half the size; beyond 10 % a fabric is far outside its linear range.
 const ADAPTIVE_MAX_STRETCH: Real = 1.10;
 /// A fixed step that leaves an edge stretched past this is redone as two
-/// half steps (the user's bound: stretch under 2 %).
+/// half steps (the user's bound: stretch under 2 %)...
 const SUBDIVIDE_STRETCH: Real = 1.02;
+/// ...if the step itself raised the worst stretch by more than this: a jump
+/// within one step is the step's artifact, while a steady stretch (a point
+/// load at a pin on a fine grid) is physics that smaller steps cannot remove.
+const SUBDIVIDE_JUMP: Real = 0.005;
 /// Halvings of one fixed step at most (a step becomes at most 16 steps).
 const SUBDIVIDE_MAX_DEPTH: u32 = 4;
 
@@ -264,7 +268,7 @@ impl Simulation {
 
     /// A fixed step of `h`, redone as two half steps (recursively, up to
     /// [`SUBDIVIDE_MAX_DEPTH`]) when it stretches an edge past
-    /// [`SUBDIVIDE_STRETCH`]: a long step through a fast swing (a free edge
+    /// [`SUBDIVIDE_STRETCH`] in one jump: a long step through a fast swing (a free edge
     /// whipping round) is where one implicit step overshoots, and the
     /// halves resolve it. Ordinary steps pay one O(springs) check.
     fn guarded_step(
@@ -278,7 +282,7 @@ impl Simulation {
         let r = self.step(h)?;
         let after = self.model.stretch.max_ratio(&self.state.x);
         match backup {
-            Some(state) if after > SUBDIVIDE_STRETCH && after > before => {
+            Some(state) if after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP => {
                 self.state = state;
                 self.steps -= 1;
                 self.integrator.reset_warm_start();

@@ -3,16 +3,7 @@
 //! 1. assemble `A dv = b` with the corrections `y` (eq. [20]);
 //! 2. update the preconditioner;
 //! 3. solve with the modified PCG under the filters `S` and targets `z`;
-//! 4. update `v += dv`, `x += h v + y`, and check both are finite;
-//! 5. if that step stretched an edge past the guard, finish the nonlinear
-//!    backward Euler solve with Newton iterations re-linearised at the new
-//!    iterate: `(M - h D - h² K) δv = h f(x_k, v_k) - M (v_k - v0)`, with
-//!    the constrained directions already at their targets (`z = 0`).
-//!
-//! One linearisation per step (Baraff & Witkin) is exact for small
-//! rotations per step; a cloth swinging through a large angle in one long
-//! step gets stretched by it. The guard keeps the cheap path for ordinary
-//! steps and pays for Newton only where the linearisation fails.
+//! 4. update `v += dv`, `x += h v + y`, and check both are finite.
 //!
 //! Constraints are an input: the caller (pins, and the collision stage)
 //! fills them before the step and may read the solve's residual after it.
@@ -77,8 +68,6 @@ pub struct StepReport {
     pub solve: SolveReport,
     /// Stage timings (the collision field is filled by the caller).
     pub times: StageTimes,
-    /// Newton iterations after the first linearised solve.
-    pub newton_iterations: usize,
 }
 
 /// A step that produced non-finite numbers.
@@ -102,12 +91,6 @@ pub struct Physics<'a> {
     pub gravity: Vec3,
 }
 
-/// When one linearised step leaves an edge longer than this (relative to
-/// rest), Newton iterations finish the step.
-pub const NEWTON_STRETCH_GUARD: Real = 1.01;
-/// Newton iterations after the first linearised solve, at most.
-pub const NEWTON_MAX_EXTRA: usize = 6;
-
 /// The step pipeline with its reusable workspace (nothing allocates per
 /// step).
 #[derive(Debug)]
@@ -118,17 +101,6 @@ pub struct Integrator {
     dv: Vec<Vec3>,
     options: MpcgOptions,
     warm_start: bool,
-    newton: NewtonScratch,
-}
-
-/// Buffers of the Newton iterations.
-#[derive(Debug, Default)]
-struct NewtonScratch {
-    x0: Vec<Vec3>,
-    v0: Vec<Vec3>,
-    y: Vec<Vec3>,
-    zero: Vec<Vec3>,
-    delta: Vec<Vec3>,
 }
 
 impl Integrator {
@@ -147,7 +119,6 @@ impl Integrator {
             dv: vec![Vec3::zeros(); n],
             options,
             warm_start,
-            newton: NewtonScratch::default(),
         }
     }
 
@@ -169,121 +140,6 @@ impl Integrator {
 
     /// Advances `state` by `h` under `constraints`.
     pub fn step(
-        &mut self,
-        state: &mut ClothState,
-        physics: &Physics<'_>,
-        constraints: &Constraints,
-        h: Real,
-    ) -> Result<StepReport, StepError> {
-        let nw = &mut self.newton;
-        nw.x0.clone_from(&state.x);
-        nw.v0.clone_from(&state.v);
-        let mut report = self.linear_step(state, physics, constraints, h)?;
-        let mut extra = 0;
-        while extra < NEWTON_MAX_EXTRA
-            && physics.model.stretch.max_ratio(&state.x) > NEWTON_STRETCH_GUARD
-        {
-            let (solve, times) = self.newton_iteration(state, physics, constraints, h)?;
-            report.solve.iterations += solve.iterations;
-            report.solve.residual = solve.residual;
-            report.solve.status = solve.status;
-            report.times.add(&times);
-            extra += 1;
-            // Converged when the correction is small against the step.
-            let step_dv: Real = state
-                .v
-                .iter()
-                .zip(&self.newton.v0)
-                .map(|(a, b)| (a - b).norm_squared())
-                .sum();
-            let corr: Real = self.newton.delta.iter().map(|d| d.norm_squared()).sum();
-            if corr <= 1e-6 * step_dv {
-                break;
-            }
-        }
-        report.newton_iterations = extra;
-        Ok(report)
-    }
-
-    /// One Newton iteration at the current iterate `(x_k, v_k)`.
-    fn newton_iteration(
-        &mut self,
-        state: &mut ClothState,
-        physics: &Physics<'_>,
-        constraints: &Constraints,
-        h: Real,
-    ) -> Result<(SolveReport, StageTimes), StepError> {
-        let mut times = StageTimes::default();
-        let n = state.x.len();
-        let nw = &mut self.newton;
-        // y = -h v_k makes the K term of b vanish: b = h f(x_k, v_k).
-        nw.y.clear();
-        nw.y.extend(state.v.iter().map(|v| -v * h));
-        nw.zero.clear();
-        nw.zero.resize(n, Vec3::zeros());
-        nw.delta.clear();
-        nw.delta.resize(n, Vec3::zeros());
-        let t = Instant::now();
-        self.system.assemble(
-            physics.model,
-            &AssemblyInput {
-                x: &state.x,
-                v: &state.v,
-                y: &nw.y,
-                mass: physics.mass,
-                gravity: physics.gravity,
-                h,
-            },
-        );
-        for i in 0..n {
-            self.system.b[i] -= (state.v[i] - nw.v0[i]) * physics.mass[i];
-        }
-        times.assemble = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        self.precond.update(&self.system.a, &constraints.filter);
-        times.precondition = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let options = MpcgOptions {
-            reference: Some(
-                filtered_norm(&self.system.b, constraints).max(gravity_impulse(
-                    physics,
-                    constraints,
-                    h,
-                )),
-            ),
-            ..self.options
-        };
-        let solve = mpcg::solve(
-            &Problem {
-                a: &self.system.a,
-                b: &self.system.b,
-                filter: &constraints.filter,
-                z: &nw.zero,
-            },
-            self.precond.as_ref(),
-            &mut nw.delta,
-            &options,
-            &mut self.ws,
-        );
-        times.solve = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        if let Some(particle) = nw.delta.iter().position(|d| !is_finite(d)) {
-            return Err(StepError {
-                particle,
-                quantity: "velocity change",
-            });
-        }
-        for i in 0..n {
-            state.v[i] += nw.delta[i];
-            self.dv[i] += nw.delta[i];
-            state.x[i] = nw.x0[i] + state.v[i] * h + constraints.y[i];
-        }
-        times.update = t.elapsed().as_secs_f64();
-        Ok((solve, times))
-    }
-
-    /// The single linearised solve of method.md §2.
-    fn linear_step(
         &mut self,
         state: &mut ClothState,
         physics: &Physics<'_>,
@@ -326,8 +182,15 @@ impl Integrator {
             // would demand ever more digits of nothing; the gravity impulse
             // h M g sets the scale of a step's velocity change instead.
             let sb = filtered_norm(&self.system.b, constraints);
+            let gravity_impulse = physics
+                .mass
+                .iter()
+                .zip(&constraints.filter)
+                .map(|(m, f)| f.apply(&(physics.gravity * (h * m))).norm_squared())
+                .sum::<Real>()
+                .sqrt();
             let options = MpcgOptions {
-                reference: Some(sb.max(gravity_impulse(physics, constraints, h))),
+                reference: Some(sb.max(gravity_impulse)),
                 ..self.options
             };
             mpcg::solve(
@@ -367,23 +230,8 @@ impl Integrator {
             }
         }
         times.update = t.elapsed().as_secs_f64();
-        Ok(StepReport {
-            solve,
-            times,
-            newton_iterations: 0,
-        })
+        Ok(StepReport { solve, times })
     }
-}
-
-/// `|S h M g|`: the scale of a step's velocity change under gravity.
-fn gravity_impulse(physics: &Physics<'_>, constraints: &Constraints, h: Real) -> Real {
-    physics
-        .mass
-        .iter()
-        .zip(&constraints.filter)
-        .map(|(m, f)| f.apply(&(physics.gravity * (h * m))).norm_squared())
-        .sum::<Real>()
-        .sqrt()
 }
 
 fn filtered_norm(b: &[Vec3], c: &Constraints) -> Real {
