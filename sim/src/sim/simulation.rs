@@ -216,6 +216,12 @@ impl Simulation {
         Ok(report)
     }
 
+    /// One step of `h` outside the frame loop (benchmarks, tools): pins
+    /// held, no subdivision, no frame bookkeeping.
+    pub fn step_once(&mut self, h: Real) -> Result<StepReport, SimError> {
+        self.step(h)
+    }
+
     /// Advances to the next frame and returns its statistics.
     pub fn advance_frame(&mut self, control: &Control<'_>) -> Result<FrameStats, SimError> {
         let (stats, _) = self.advance_frame_timed(control)?;
@@ -339,7 +345,10 @@ impl Simulation {
             done += 1 << (max_level - self.level);
             self.easy_steps += 1;
             let coarser = 1u64 << (max_level - self.level + 1);
-            if self.easy_steps >= ADAPTIVE_GROW_AFTER && self.level > 0 && done % coarser == 0 {
+            if self.easy_steps >= ADAPTIVE_GROW_AFTER
+                && self.level > 0
+                && done.is_multiple_of(coarser)
+            {
                 self.level -= 1;
                 self.easy_steps = 0;
             }

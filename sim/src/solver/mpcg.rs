@@ -140,7 +140,7 @@ pub fn solve(
         a.mul(&ws.c, &mut ws.q);
         filter_in_place(s, &mut ws.q);
         let curvature = dot(&ws.c, &ws.q);
-        if !(curvature > 0.0) || !curvature.is_finite() {
+        if curvature <= 0.0 || !curvature.is_finite() {
             break SolveStatus::Breakdown;
         }
         let alpha = delta / curvature;
