@@ -139,8 +139,8 @@ pub struct AlternatingLines {
     scratch: std::cell::RefCell<Vec<f64>>,
 }
 
-// SAFETY-free: RefCell is only borrowed inside `apply`, which the solver
-// calls from one thread at a time; `Send` is what the trait needs.
+// NOTE: `scratch` is a RefCell so `apply(&self)` can reuse one buffer; that
+// makes the type `Send` but not `Sync`, which is all the trait asks.
 
 impl AlternatingLines {
     /// Lines of the grid with particle `(i, j)` at `i + j * nu`.

@@ -107,13 +107,7 @@ pub fn solve(
     for i in 0..n {
         dv[i] = s[i].apply(&dv[i]) + z[i] - s[i].apply(&z[i]);
     }
-    let reference = opts.reference.unwrap_or_else(|| {
-        b.iter()
-            .zip(s)
-            .map(|(b, f)| f.apply(b).norm_squared())
-            .sum::<Real>()
-            .sqrt()
-    });
+    let reference = opts.reference.unwrap_or_else(|| filtered_norm(b, s));
     let floor = tiny_reference(reference);
     let threshold = opts.tolerance * floor;
 
@@ -164,6 +158,15 @@ pub fn solve(
         residual: rnorm / floor,
         status,
     }
+}
+
+/// `|S v|`: the norm of `v` on the free directions.
+pub fn filtered_norm(v: &[Vec3], s: &[Filter]) -> Real {
+    v.iter()
+        .zip(s)
+        .map(|(v, f)| f.apply(v).norm_squared())
+        .sum::<Real>()
+        .sqrt()
 }
 
 /// The reference norm, kept away from zero so an all-zero system converges

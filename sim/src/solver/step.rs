@@ -181,7 +181,7 @@ impl Integrator {
             // NOTE: at rest b -> 0, and a tolerance relative to |S b| alone
             // would demand ever more digits of nothing; the gravity impulse
             // h M g sets the scale of a step's velocity change instead.
-            let sb = filtered_norm(&self.system.b, constraints);
+            let sb = mpcg::filtered_norm(&self.system.b, &constraints.filter);
             let gravity_impulse = physics
                 .mass
                 .iter()
@@ -232,12 +232,4 @@ impl Integrator {
         times.update = t.elapsed().as_secs_f64();
         Ok(StepReport { solve, times })
     }
-}
-
-fn filtered_norm(b: &[Vec3], c: &Constraints) -> Real {
-    b.iter()
-        .zip(&c.filter)
-        .map(|(b, f)| f.apply(b).norm_squared())
-        .sum::<Real>()
-        .sqrt()
 }
