@@ -15,8 +15,10 @@
 //! cancellation) and receive frames.
 
 pub mod cloth;
+pub mod collision;
 pub mod export;
 pub mod math;
+pub mod mesh;
 pub mod sim;
 pub mod solver;
 pub mod spec;

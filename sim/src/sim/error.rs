@@ -21,6 +21,15 @@ pub enum SimError {
         /// Steps completed before stopping.
         step: usize,
     },
+    /// An obstacle could not be built (a mesh that validation should have
+    /// refused).
+    #[error("obstacles[{index}]: {message}")]
+    Obstacle {
+        /// The obstacle's index in the scene.
+        index: usize,
+        /// What was wrong.
+        message: String,
+    },
     /// The frame consumer failed (for example, a disk write).
     #[error("frame output failed: {0}")]
     Output(String),

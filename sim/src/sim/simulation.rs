@@ -7,6 +7,7 @@ use super::control::{Control, Progress};
 use super::error::SimError;
 use super::stats::{FrameStats, StatsRecorder};
 use crate::cloth::{ForceModel, Grid};
+use crate::collision::{CollisionCounters, CollisionStage, Contact};
 use crate::math::{Real, Vec3};
 use crate::solver::{
     ClothState, Constraints, Integrator, MpcgOptions, Physics, SolveStatus, StageTimes, StepReport,
@@ -27,6 +28,10 @@ const SUBDIVIDE_JUMP: Real = 0.005;
 /// Halvings of one fixed step at most (a step becomes at most 16 steps).
 const SUBDIVIDE_MAX_DEPTH: u32 = 4;
 
+/// Redos of one step's solve when particles cross a surface mid-step;
+/// crossings left after the last are handled by the next step.
+const MAX_REDOS: usize = 2;
+
 /// Accepted steps in a row before the adaptive controller tries a step
 /// twice as large.
 const ADAPTIVE_GROW_AFTER: u32 = 8;
@@ -40,6 +45,10 @@ pub struct Simulation {
     state: ClothState,
     integrator: Integrator,
     constraints: Constraints,
+    /// Obstacles and contacts; `None` when the scene has no obstacles (or
+    /// collision is switched off): no collision stage at all.
+    collision: Option<CollisionStage>,
+    pinned: Vec<bool>,
     /// Where pinned particles are held: their positions when the run
     /// started (or when the state was last replaced).
     anchors: Vec<Vec3>,
@@ -73,6 +82,23 @@ impl Simulation {
             v: vec![Vec3::zeros(); n],
         };
         let anchors = scene.cloth.pinned.iter().map(|&i| grid.rest[i]).collect();
+        let mut pinned = vec![false; n];
+        for &i in &scene.cloth.pinned {
+            pinned[i] = true;
+        }
+        // NOTE: the offset follows the finer spacing: a grid resolves the
+        // drape along its fine direction, and a strip spaced 1 mm along and
+        // 5 mm across must not float 2 mm above its support.
+        let collision = if scene.solver.collision {
+            CollisionStage::new(&scene.obstacles, grid.du.min(grid.dv)).map_err(|(index, e)| {
+                SimError::Obstacle {
+                    index,
+                    message: e.to_string(),
+                }
+            })?
+        } else {
+            None
+        };
         let level = match scene.solver.stepping {
             TimeStepping::Fixed { .. } => 0,
             // Start near 1/240 s and let the controller find its way.
@@ -87,6 +113,8 @@ impl Simulation {
             state,
             integrator,
             constraints: Constraints::free(n),
+            collision,
+            pinned,
             anchors,
             frame: 0,
             steps: 0,
@@ -170,15 +198,19 @@ impl Simulation {
             cg_iterations_max: 0,
             unconverged_solves: 0,
             subdivided_steps: 0,
-            contacts: 0,
+            contacts: self.collision.as_ref().map_or(0, |c| c.contacts().len()),
             new_contacts: 0,
             released_contacts: 0,
             nodes_visited: 0,
+            redone_solves: 0,
             collision_seconds: 0.0,
             step_seconds: 0.0,
             kinetic_energy: self.kinetic_energy(),
             max_stretch: self.model.stretch.max_ratio(&self.state.x),
-            min_signed_distance: None,
+            min_signed_distance: self
+                .collision
+                .as_ref()
+                .map(|c| c.min_true_distance(&self.state.x, self.state.time)),
             dt: 0.0,
         }
     }
@@ -193,27 +225,93 @@ impl Simulation {
         }
     }
 
-    /// One step of size `h`, with the step counter and errors attached.
+    /// One step of size `h`, with the step counter and errors attached:
+    /// collision prepares contacts, the integrator solves, collision checks
+    /// the path taken and the solve is redone (up to [`MAX_REDOS`] times)
+    /// when a particle crossed a surface; then contacts are released or
+    /// change friction state from the accepted solve's constraint forces.
     fn step(&mut self, h: Real) -> Result<StepReport, SimError> {
         let _span = tracing::trace_span!("step", step = self.steps).entered();
-        self.constrain();
         let time = self.state.time;
-        let physics = Physics {
-            model: &self.model,
-            mass: &self.grid.mass,
-            gravity: self.scene.gravity,
-        };
-        let report = self
-            .integrator
-            .step(&mut self.state, &physics, &self.constraints, h)
-            .map_err(|e| SimError::NonFinite {
-                step: self.steps,
-                time,
-                particle: e.particle,
-                quantity: e.quantity,
-            })?;
-        self.steps += 1;
-        Ok(report)
+        let start = self.collision.is_some().then(|| self.state.clone());
+        let mut iterations = 0;
+        let mut times = StageTimes::default();
+        let mut collision_seconds = 0.0;
+        let mut redos = 0;
+        loop {
+            self.constrain();
+            if let Some(stage) = &mut self.collision {
+                let t = Instant::now();
+                stage.prepare(
+                    &self.state.x,
+                    &self.state.v,
+                    self.integrator.last_dv(),
+                    &self.grid.mass,
+                    time,
+                    h,
+                    &self.pinned,
+                    &mut self.constraints,
+                );
+                collision_seconds += t.elapsed().as_secs_f64();
+            }
+            let physics = Physics {
+                model: &self.model,
+                mass: &self.grid.mass,
+                gravity: self.scene.gravity,
+            };
+            let report = self
+                .integrator
+                .step(&mut self.state, &physics, &self.constraints, h)
+                .map_err(|e| SimError::NonFinite {
+                    step: self.steps,
+                    time,
+                    particle: e.particle,
+                    quantity: e.quantity,
+                })?;
+            iterations += report.solve.iterations;
+            times.add(&report.times);
+            let mut solve = report.solve;
+            solve.iterations = iterations;
+            let (Some(stage), Some(start)) = (&mut self.collision, &start) else {
+                self.steps += 1;
+                return Ok(StepReport { solve, times });
+            };
+            let t = Instant::now();
+            let crossings = stage.check(&start.x, &self.state.x, &self.pinned);
+            if !crossings.is_empty() && redos < MAX_REDOS {
+                stage.redo_with(&crossings);
+                self.state.clone_from(start);
+                redos += 1;
+                collision_seconds += t.elapsed().as_secs_f64();
+                continue;
+            }
+            let integrator = &self.integrator;
+            let g = self.scene.gravity.norm();
+            stage.update(&self.state.v, &self.grid.mass, g, h, |i| {
+                integrator.constraint_impulse(i)
+            });
+            stage.add_late(&crossings);
+            collision_seconds += t.elapsed().as_secs_f64();
+            self.steps += 1;
+            times.collision = collision_seconds;
+            return Ok(StepReport { solve, times });
+        }
+    }
+
+    /// What a rejected step must restore: the cloth and the contact set.
+    fn snapshot(&self) -> (ClothState, Option<Vec<Contact>>) {
+        (
+            self.state.clone(),
+            self.collision.as_ref().map(|c| c.contacts().to_vec()),
+        )
+    }
+
+    fn restore(&mut self, (state, contacts): (ClothState, Option<Vec<Contact>>)) {
+        self.state = state;
+        if let (Some(stage), Some(contacts)) = (&mut self.collision, contacts) {
+            stage.set_contacts(contacts);
+        }
+        self.integrator.reset_warm_start();
     }
 
     /// One step of `h` outside the frame loop (benchmarks, tools): pins
@@ -259,6 +357,13 @@ impl Simulation {
         stats.unconverged_solves = acc.unconverged;
         stats.subdivided_steps = acc.subdivided;
         stats.collision_seconds = acc.times.collision;
+        if let Some(stage) = &mut self.collision {
+            let counters: CollisionCounters = stage.take_counters();
+            stats.new_contacts = counters.new;
+            stats.released_contacts = counters.released;
+            stats.nodes_visited = counters.nodes;
+            stats.redone_solves = counters.redone;
+        }
         stats.step_seconds = start.elapsed().as_secs_f64();
         stats.dt = acc.last_h;
         if let Some(p) = control.progress {
@@ -284,14 +389,13 @@ impl Simulation {
         acc: &mut FrameAccumulator,
     ) -> Result<(), SimError> {
         let before = self.model.stretch.max_ratio(&self.state.x);
-        let backup = (depth < SUBDIVIDE_MAX_DEPTH).then(|| self.state.clone());
+        let backup = (depth < SUBDIVIDE_MAX_DEPTH).then(|| self.snapshot());
         let r = self.step(h)?;
         let after = self.model.stretch.max_ratio(&self.state.x);
         match backup {
-            Some(state) if after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP => {
-                self.state = state;
+            Some(snapshot) if after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP => {
+                self.restore(snapshot);
                 self.steps -= 1;
-                self.integrator.reset_warm_start();
                 acc.subdivided += 1;
                 self.guarded_step(h / 2.0, depth + 1, acc)?;
                 self.guarded_step(h / 2.0, depth + 1, acc)
@@ -321,7 +425,7 @@ impl Simulation {
         while done < units {
             self.check_cancel(control)?;
             let h = frame_dt / (1u64 << self.level) as Real;
-            let backup = self.state.clone();
+            let backup = self.snapshot();
             let result = self.step(h);
             let ok = match &result {
                 Ok(r) => {
@@ -331,8 +435,7 @@ impl Simulation {
                 Err(_) => false,
             };
             if !ok && self.level < max_level {
-                self.state = backup;
-                self.integrator.reset_warm_start();
+                self.restore(backup);
                 self.level += 1;
                 self.easy_steps = 0;
                 if result.is_ok() {
@@ -397,7 +500,22 @@ impl Simulation {
 
     /// A fresh recorder for this simulation's run.
     pub fn recorder(&self) -> StatsRecorder {
-        StatsRecorder::new(&self.scene.name, self.grid.len())
+        let mut rec = StatsRecorder::new(&self.scene.name, self.grid.len());
+        if let Some(stage) = &self.collision {
+            rec.set_obstacle_offsets(
+                stage
+                    .colliders()
+                    .iter()
+                    .map(|c| c.surface.offset())
+                    .collect(),
+            );
+        }
+        rec
+    }
+
+    /// The collision stage, if the scene has one.
+    pub fn collision(&self) -> Option<&CollisionStage> {
+        self.collision.as_ref()
     }
 }
 

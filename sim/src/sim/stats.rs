@@ -30,6 +30,8 @@ pub struct FrameStats {
     pub released_contacts: usize,
     /// BVH nodes visited during the frame.
     pub nodes_visited: u64,
+    /// Solves redone because a particle crossed a surface mid-step.
+    pub redone_solves: usize,
     /// Collision stage wall time during the frame, seconds.
     pub collision_seconds: f64,
     /// Wall time of the frame's steps, seconds.
@@ -74,6 +76,16 @@ pub struct RunStats {
     pub collision_fraction: f64,
     /// Most particles in contact at a frame.
     pub contacts_max: usize,
+    /// Contacts made over the run.
+    pub contacts_new: usize,
+    /// Contacts released over the run.
+    pub contacts_released: usize,
+    /// BVH nodes visited over the run.
+    pub nodes_visited: u64,
+    /// Solves redone because a particle crossed a surface mid-step.
+    pub redone_solves: usize,
+    /// Each obstacle's collision offset `delta`, metres.
+    pub obstacle_offsets: Vec<f64>,
     /// Smallest signed distance to a true obstacle surface over all frames
     /// (negative = inside); `None` without obstacles.
     pub min_signed_distance: Option<f64>,
@@ -114,6 +126,11 @@ impl StatsRecorder {
                 collision_seconds: 0.0,
                 collision_fraction: 0.0,
                 contacts_max: 0,
+                contacts_new: 0,
+                contacts_released: 0,
+                nodes_visited: 0,
+                redone_solves: 0,
+                obstacle_offsets: Vec::new(),
                 min_signed_distance: None,
                 max_stretch: 0.0,
                 max_stretch_any_frame: 0.0,
@@ -137,6 +154,10 @@ impl StatsRecorder {
         s.subdivided_steps += f.subdivided_steps;
         s.collision_seconds += f.collision_seconds;
         s.contacts_max = s.contacts_max.max(f.contacts);
+        s.contacts_new += f.new_contacts;
+        s.contacts_released += f.released_contacts;
+        s.nodes_visited += f.nodes_visited;
+        s.redone_solves += f.redone_solves;
         s.min_signed_distance = match (s.min_signed_distance, f.min_signed_distance) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -146,6 +167,11 @@ impl StatsRecorder {
         s.stage_seconds.add(stages);
         self.step_seconds += f.step_seconds;
         s.per_frame.push(f);
+    }
+
+    /// Records the obstacles' collision offsets.
+    pub fn set_obstacle_offsets(&mut self, offsets: Vec<f64>) {
+        self.stats.obstacle_offsets = offsets;
     }
 
     /// Marks the run as having produced non-finite numbers.

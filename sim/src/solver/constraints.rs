@@ -6,7 +6,9 @@
 //! - `y_i`: a position correction applied this step through eq. [20], so
 //!   neighbours feel it through the springs in the same solve.
 //!
-//! Pins fill these now; obstacle contacts will fill the same arrays.
+//! - an impulse added to `b`: friction forces that are not constraints.
+//!
+//! Pins and obstacle contacts fill the same arrays.
 
 use crate::math::{Mat3, Real, Vec3};
 
@@ -89,6 +91,8 @@ pub struct Constraints {
     pub z: Vec<Vec3>,
     /// Position corrections `y_i` (eq. [20]).
     pub y: Vec<Vec3>,
+    /// Impulses added to `b` this step (kinetic friction).
+    pub impulse: Vec<Vec3>,
 }
 
 impl Constraints {
@@ -98,6 +102,7 @@ impl Constraints {
             filter: vec![Filter::Free; n],
             z: vec![Vec3::zeros(); n],
             y: vec![Vec3::zeros(); n],
+            impulse: vec![Vec3::zeros(); n],
         }
     }
 
@@ -106,6 +111,7 @@ impl Constraints {
         self.filter.fill(Filter::Free);
         self.z.fill(Vec3::zeros());
         self.y.fill(Vec3::zeros());
+        self.impulse.fill(Vec3::zeros());
     }
 
     /// Fixes particle `i`: its `dv` becomes `dv`, its position moves by `y`

@@ -128,6 +128,20 @@ impl Integrator {
         mpcg::residual(&self.ws)
     }
 
+    /// The impulse the constraints exerted on particle `i` in the last
+    /// solve, `(A dv - b)_i`: zero on free directions (to solver
+    /// tolerance), the constraint force times `h` on blocked ones. Contact
+    /// release reads its normal part (method.md §4).
+    pub fn constraint_impulse(&self, i: usize) -> Vec3 {
+        let ad: Vec3 = self
+            .system
+            .a
+            .row(i)
+            .map(|(j, block)| block * self.dv[j])
+            .sum();
+        ad - self.system.b[i]
+    }
+
     /// The last step's velocity change.
     pub fn last_dv(&self) -> &[Vec3] {
         &self.dv
@@ -162,6 +176,9 @@ impl Integrator {
                     h,
                 },
             );
+            for (b, j) in self.system.b.iter_mut().zip(&constraints.impulse) {
+                *b += j;
+            }
         }
         times.assemble = t.elapsed().as_secs_f64();
 

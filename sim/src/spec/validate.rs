@@ -285,8 +285,30 @@ fn validate_obstacle(path: &str, o: &Obstacle, limits: &Limits, c: &mut Check) {
                 format!("must have exactly one of obj, stl, or vertices + triangles, found {n}"),
             );
         }
+        let before = c.errors.len();
         if inline {
             validate_inline_mesh(path, m, limits, c);
+        }
+        if n == 1 && c.errors.len() == before {
+            let field = if m.obj.is_some() {
+                "obj"
+            } else if m.stl.is_some() {
+                "stl"
+            } else {
+                "triangles"
+            };
+            match crate::mesh::from_source(m) {
+                Err(e) => c.fail(format!("{path}.mesh.{field}"), e.0),
+                Ok(mesh) if mesh.triangles().len() > limits.max_triangles => c.fail(
+                    format!("{path}.mesh.{field}"),
+                    format!(
+                        "{} triangles exceeds the limit of {}",
+                        mesh.triangles().len(),
+                        limits.max_triangles
+                    ),
+                ),
+                Ok(_) => {}
+            }
         }
     }
     c.range(&format!("{path}.friction"), o.friction, false, 10.0);

@@ -1,0 +1,106 @@
+//! One obstacle as the collision stage sees it: its exact or meshed
+//! surface in its own frame, how it moves, and its friction.
+
+use super::aabb::Aabb;
+use super::analytic::{Analytic, Primitive};
+use super::meshsurface::MeshSurface;
+use super::pose::{Pose, Trajectory};
+use super::surface::Surface;
+use crate::math::{Real, Vec3};
+use crate::mesh::{
+    MeshError, TriMesh, from_source, tessellate_box, tessellate_cylinder, tessellate_plane,
+    tessellate_sphere,
+};
+use crate::spec::Obstacle;
+
+/// A rigid obstacle ready for collision.
+#[derive(Debug)]
+pub struct Collider {
+    /// Shape and offset surface, in the obstacle's own frame.
+    pub surface: Box<dyn Surface>,
+    /// Pose over time.
+    pub trajectory: Trajectory,
+    /// Coulomb coefficient.
+    pub friction: Real,
+    /// The pose never changes: no per-step transforms.
+    pub is_static: bool,
+}
+
+impl Collider {
+    /// Builds a validated obstacle for a cloth of particle spacing
+    /// `spacing` (which sets the default offset).
+    pub fn new(o: &Obstacle, spacing: Real) -> Result<Self, MeshError> {
+        let surface: Box<dyn Surface> = match Primitive::of(o) {
+            Some(p) => Box::new(Analytic::new(p, o.offset, spacing)),
+            None => {
+                let source = o
+                    .mesh
+                    .as_ref()
+                    .ok_or_else(|| MeshError("has no shape".into()))?;
+                Box::new(MeshSurface::new(from_source(source)?, o.offset, spacing))
+            }
+        };
+        let trajectory = Trajectory::new(o.motion.as_ref());
+        Ok(Self {
+            surface,
+            is_static: trajectory.is_static(),
+            trajectory,
+            friction: o.friction,
+        })
+    }
+
+    /// The offset solid's box in the world at pose `p` (unbounded when the
+    /// local box is and the obstacle moves).
+    pub fn world_bounds(&self, p: &Pose) -> Aabb {
+        let local = self.surface.bounds();
+        if self.is_static {
+            return local;
+        }
+        if !(local
+            .lo
+            .iter()
+            .chain(local.hi.iter())
+            .all(|c| c.is_finite()))
+        {
+            return Aabb {
+                lo: Vec3::repeat(Real::NEG_INFINITY),
+                hi: Vec3::repeat(Real::INFINITY),
+            };
+        }
+        Aabb::of_points(&local.corners().map(|c| p.transform_point(&c.into()).coords))
+    }
+}
+
+/// A triangle mesh picturing an obstacle in its own frame, with edges about
+/// `edge` long (planes drawn as a square of side `2 extent`): what a
+/// viewer draws.
+pub fn display_mesh(o: &Obstacle, edge: Real, extent: Real) -> Result<TriMesh, MeshError> {
+    if let Some(s) = &o.sphere {
+        return Ok(tessellate_sphere(s.center.into(), s.radius, edge));
+    }
+    if let Some(b) = &o.box_ {
+        return Ok(tessellate_box(b.center.into(), b.size.into(), edge));
+    }
+    if let Some(p) = &o.plane {
+        return Ok(tessellate_plane(
+            p.point.into(),
+            p.normal.into(),
+            extent,
+            edge.max(extent / 64.0),
+        ));
+    }
+    if let Some(c) = &o.cylinder {
+        return Ok(tessellate_cylinder(
+            c.center.into(),
+            c.axis.into(),
+            c.radius,
+            c.height,
+            edge,
+        ));
+    }
+    from_source(
+        o.mesh
+            .as_ref()
+            .ok_or_else(|| MeshError("has no shape".into()))?,
+    )
+}

@@ -1,0 +1,246 @@
+//! Contacts and their response inside the solve (method.md §4): each
+//! contact becomes a filter `S`, a target `z` and a correction `y` of the
+//! modified PCG (eqs. [15]-[20]), never a force.
+//!
+//! For a contact with world normal `n`, offset-surface point `p0` now,
+//! obstacle velocity `w` there, and the particle's signed gap
+//! `g = n·(x - p0)`:
+//!
+//! - sliding: `S = I - n nᵀ`; `z = n (n·(w - v) - g/h)` for a particle
+//!   outside (`g > 0`), the normal velocity that lands it on the surface at
+//!   the step's end; `z = n n·(w - v)` and `y = -g n` for one inside, the
+//!   correction of eq. [20] that puts it back (§4, "position");
+//! - sticking (static friction): `S = 0`, the same split with the full
+//!   `w - v` and `p0 - x`: the particle moves with the obstacle.
+//!
+//! Closing a gap through the velocity rather than through `y` keeps the
+//! constraint force honest: if the particle was not really going to reach
+//! the surface, holding it to the landing velocity pulls, the normal
+//! impulse turns negative, and the contact is released.
+//!
+//! A particle touching two surfaces is blocked along both normals, with
+//! `z` and `y` solving both conditions in the span of the normals.
+
+use crate::math::{Real, Vec3};
+use crate::solver::{Constraints, Filter};
+
+/// A particle held by an obstacle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// The particle.
+    pub particle: u32,
+    /// The obstacle (index into the scene's obstacles).
+    pub obstacle: u32,
+    /// Static friction holds it (it moves with the obstacle).
+    pub sticking: bool,
+    /// Normal force of the last solve, N (0 for a new contact).
+    pub normal_force: Real,
+}
+
+/// A contact's geometry for the current step, in the world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plan {
+    /// Outward unit normal of the offset surface.
+    pub normal: Vec3,
+    /// Offset-surface point nearest the particle, at the start of the step.
+    pub point: Vec3,
+    /// Obstacle velocity at that point over the step.
+    pub velocity: Vec3,
+    /// The particle's tangential velocity relative to the obstacle at the
+    /// start of the step.
+    pub slip: Vec3,
+}
+
+/// Writes particle `i`'s constraints from its contacts this step (all
+/// with `particle == i`, plans alongside) given its velocity `v` and
+/// position `x`, for a step of `h`. A push out of the solid longer than
+/// `max_push` is shortened to it (the rest follows in later steps).
+pub fn constrain(
+    i: usize,
+    contacts: &[(Contact, Plan)],
+    x: &Vec3,
+    v: &Vec3,
+    h: Real,
+    max_push: Real,
+    c: &mut Constraints,
+) {
+    let cap = |y: Vec3| {
+        let n = y.norm();
+        if n > max_push { y * (max_push / n) } else { y }
+    };
+    if let Some((_, p)) = contacts.iter().find(|(k, _)| k.sticking) {
+        let d = p.point - x;
+        let (z, y) = if p.normal.dot(&d) < 0.0 {
+            (p.velocity - v + d / h, Vec3::zeros())
+        } else {
+            (p.velocity - v, cap(d))
+        };
+        c.fix(i, z, y);
+        return;
+    }
+    // Conditions n·dv = a, n·y = e per contact; keep the two that push out
+    // hardest if more touch at once.
+    let mut rows: Vec<(Vec3, Real, Real)> = contacts
+        .iter()
+        .map(|(_, p)| {
+            let n = p.normal;
+            let a = n.dot(&(p.velocity - v));
+            let e = n.dot(&(p.point - x));
+            if e < 0.0 {
+                (n, a + e / h, 0.0)
+            } else {
+                (n, a, e)
+            }
+        })
+        .collect();
+    rows.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let (z, y, filter) = match rows.as_slice() {
+        [] => return,
+        [(n, a, e)] => (n * *a, n * *e, Filter::Plane(*n)),
+        [(n1, a1, e1), (n2, a2, e2), ..] => {
+            let g = n1.dot(n2);
+            let det = 1.0 - g * g;
+            if det < 1e-6 {
+                (n1 * *a1, n1 * *e1, Filter::Plane(*n1))
+            } else {
+                // Gram system [1 g; g 1] α = rhs, solution α1 n1 + α2 n2.
+                let solve = |r1: Real, r2: Real| {
+                    let a = (r1 - g * r2) / det;
+                    let b = (r2 - g * r1) / det;
+                    n1 * a + n2 * b
+                };
+                (
+                    solve(*a1, *a2),
+                    solve(*e1, *e2),
+                    Filter::blocking(&[*n1, *n2]),
+                )
+            }
+        }
+    };
+    c.filter[i] = filter;
+    c.z[i] = z;
+    c.y[i] = cap(y);
+}
+
+/// The kinetic friction impulse on a sliding particle over a step of `h`:
+/// `μ |f_n| h` against its tangential velocity relative to the obstacle,
+/// no more than stops it (friction never reverses the slide).
+pub fn kinetic_impulse(k: &Contact, p: &Plan, mu: Real, mass: Real, h: Real) -> Vec3 {
+    if k.sticking || mu <= 0.0 || k.normal_force <= 0.0 {
+        return Vec3::zeros();
+    }
+    let speed = p.slip.norm();
+    if speed <= 0.0 {
+        return Vec3::zeros();
+    }
+    let magnitude = (mu * k.normal_force * h).min(mass * speed);
+    -p.slip * (magnitude / speed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn contact(sticking: bool) -> Contact {
+        Contact {
+            particle: 0,
+            obstacle: 0,
+            sticking,
+            normal_force: 1.0,
+        }
+    }
+
+    #[test]
+    fn sliding_contact_sets_the_normal_velocity_and_lands_on_the_surface() {
+        let mut c = Constraints::free(1);
+        let n = Vec3::new(0.0, 0.6, 0.8);
+        let plan = Plan {
+            normal: n,
+            point: Vec3::new(0.0, 0.0, 0.1),
+            velocity: Vec3::new(0.5, 0.0, 1.0),
+            slip: Vec3::zeros(),
+        };
+        let (x, v, h) = (Vec3::new(0.3, -0.2, 0.05), Vec3::new(1.0, 2.0, -3.0), 0.01);
+        constrain(0, &[(contact(false), plan)], &x, &v, h, 1.0, &mut c);
+        // Any free dv leaves the normal parts where z puts them.
+        let dv = c.z[0] + c.filter[0].apply(&Vec3::new(0.7, -0.4, 0.2));
+        assert!(((v + dv).dot(&n) - plan.velocity.dot(&n)).abs() < 1e-14);
+        let x1 = x + (v + dv) * h + c.y[0];
+        let p1 = plan.point + plan.velocity * h;
+        assert!((x1 - p1).dot(&n).abs() < 1e-14);
+
+        // Outside, the gap closes through the velocity: no correction, and
+        // the step still ends on the surface.
+        let above = plan.point + n * 0.02;
+        let mut c = Constraints::free(1);
+        constrain(0, &[(contact(false), plan)], &above, &v, h, 1.0, &mut c);
+        assert_eq!(c.y[0], Vec3::zeros());
+        let x1 = above + (v + c.z[0]) * h;
+        assert!((x1 - p1).dot(&n).abs() < 1e-14);
+    }
+
+    #[test]
+    fn two_surfaces_block_both_normals() {
+        let mut c = Constraints::free(1);
+        let n1 = Vec3::z();
+        let n2 = Vec3::new(1.0, 0.0, 1.0).normalize();
+        let p1 = Plan {
+            normal: n1,
+            point: Vec3::new(0.0, 0.0, 0.0),
+            velocity: Vec3::zeros(),
+            slip: Vec3::zeros(),
+        };
+        let p2 = Plan {
+            normal: n2,
+            point: Vec3::new(0.1, 0.0, 0.0),
+            velocity: Vec3::new(0.0, 0.0, 0.2),
+            slip: Vec3::zeros(),
+        };
+        let (x, v, h) = (Vec3::new(0.0, 0.0, -0.01), Vec3::new(0.0, 1.0, -1.0), 0.01);
+        constrain(
+            0,
+            &[(contact(false), p1), (contact(false), p2)],
+            &x,
+            &v,
+            h,
+            1.0,
+            &mut c,
+        );
+        assert_eq!(c.filter[0].blocked(), 2);
+        let dv = c.z[0] + c.filter[0].apply(&Vec3::new(0.3, 0.3, 0.3));
+        let x1 = x + (v + dv) * h + c.y[0];
+        for p in [p1, p2] {
+            assert!(((v + dv).dot(&p.normal) - p.velocity.dot(&p.normal)).abs() < 1e-12);
+            assert!((x1 - p.point - p.velocity * h).dot(&p.normal).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn sticking_moves_with_the_obstacle_and_friction_never_reverses() {
+        let mut c = Constraints::free(1);
+        let mut plan = Plan {
+            normal: Vec3::z(),
+            point: Vec3::new(1.0, 0.0, 0.0),
+            velocity: Vec3::new(0.0, 2.0, 0.0),
+            slip: Vec3::zeros(),
+        };
+        let (x, v, h) = (Vec3::new(1.0, 0.0, 0.001), Vec3::zeros(), 0.01);
+        constrain(0, &[(contact(true), plan)], &x, &v, h, 1.0, &mut c);
+        assert_eq!(c.filter[0], Filter::Fixed);
+        let x1 = x + (v + c.z[0]) * h + c.y[0];
+        assert!((x1 - (plan.point + plan.velocity * h)).norm() < 1e-15);
+
+        plan.slip = Vec3::new(0.0, 1e-3, 0.0);
+        let j = kinetic_impulse(&contact(false), &plan, 0.5, 2.0, h);
+        assert!(
+            (j - Vec3::new(0.0, -2e-3, 0.0)).norm() < 1e-15,
+            "stops, does not reverse"
+        );
+        plan.slip = Vec3::new(3.0, 0.0, 0.0);
+        let j = kinetic_impulse(&contact(false), &plan, 0.5, 2.0, h);
+        assert!(
+            (j - Vec3::new(-0.005, 0.0, 0.0)).norm() < 1e-15,
+            "μ |f_n| h against the slide"
+        );
+    }
+}

@@ -1,0 +1,27 @@
+//! Collision of cloth particles with rigid obstacles (method.md §3, §4):
+//! exact primitives and triangle meshes with a bounding-volume hierarchy,
+//! continuous vertex–face tests on the offset surface in each obstacle's
+//! own frame, and the response inside the solve through the filters,
+//! targets and corrections of the modified PCG.
+
+mod aabb;
+mod analytic;
+mod bvh;
+mod collider;
+mod contact;
+mod meshsurface;
+mod pose;
+mod stage;
+mod surface;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use analytic::{Analytic, Primitive};
+pub use bvh::Bvh;
+pub use collider::{Collider, display_mesh};
+pub use contact::{Contact, Plan};
+pub use meshsurface::MeshSurface;
+pub use pose::{Pose, Trajectory};
+pub use stage::{CollisionCounters, CollisionStage};
+pub use surface::{Hit, Projection, Surface};
+pub use triangle::{Feature, PlaneHit, closest_point, segment_hit};

@@ -1,0 +1,126 @@
+//! How far out the collision surface sits (method.md §3, fig. 5): the
+//! offset `delta` that keeps an obstacle's edges and curvature from poking
+//! between cloth particles, since only particles (not cloth edges or faces)
+//! are tested.
+//!
+//! A cloth edge of length `s` whose ends rest on the offset surface sags
+//! towards the obstacle between them. The default offset is the smallest
+//! that keeps that chord outside the true surface, plus a margin:
+//!
+//! - flat: no sag; only the margin;
+//! - smooth, radius `R`: the cloth triangle's diagonal `√2 s` sags
+//!   `(√2 s)² / 8R = s² / 4R`;
+//! - a sharp convex edge turning by `θ`, with an exact offset surface
+//!   (rounded by `delta`): a chord with ends on the two faces' offset planes
+//!   passes the edge at `delta / cos(θ/2) - (s/2) tan(θ/2)`, which is
+//!   non-negative for `delta >= (s/2) sin(θ/2)`: `0.354 s` for a box edge;
+//! - a mesh offset along vertex normals is chamfered, not rounded, at a
+//!   sharp edge: the chord passes the chamfer's apex at
+//!   `delta - (s/2) tan(θ/2)`, so `delta >= (s/2) tan(θ/2)`.
+//!
+//! `s` is taken 2 % long (the stretch the solver allows) and the margin is
+//! 5 % of the spacing: what solver tolerance and the one-step lag of
+//! release may leave a particle inside the offset surface.
+
+use super::normals::edge_faces;
+use super::trimesh::TriMesh;
+use crate::math::Real;
+
+/// Margin of every offset, as a fraction of the particle spacing.
+const MARGIN: Real = 0.05;
+/// Chord length allowance for stretch.
+const STRETCH: Real = 1.02;
+/// Turning angles beyond this (a knife edge) are treated as this, so the
+/// offset stays below one particle spacing.
+const MAX_TURN: Real = 2.0 * std::f64::consts::FRAC_PI_3;
+
+/// The shape feature that sets an obstacle's offset.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Curvature {
+    /// A plane.
+    Flat,
+    /// A smooth surface with this smallest radius of curvature.
+    Smooth(Real),
+    /// Exact surface with sharp convex edges turning by this angle (and
+    /// possibly smooth parts of larger radius).
+    Sharp(Real),
+    /// A triangle mesh offset along vertex normals, with this requirement
+    /// (from [`mesh_offset_requirement`]).
+    Mesh(Real),
+}
+
+/// The default offset for a cloth with particle spacing `spacing`.
+pub fn default_offset(spacing: Real, curvature: Curvature) -> Real {
+    let s = spacing * STRETCH;
+    let need = match curvature {
+        Curvature::Flat => 0.0,
+        Curvature::Smooth(r) => (s * s / (4.0 * r)).min(0.5 * s),
+        Curvature::Sharp(theta) => 0.5 * s * (theta.min(MAX_TURN) / 2.0).sin(),
+        Curvature::Mesh(need) => need,
+    };
+    MARGIN * spacing + need
+}
+
+/// The offset a mesh needs beyond the margin: the chamfer requirement
+/// `(s/2) tan(Θ/2)`, largest over convex edges, where `Θ` is the turn a
+/// cloth edge of length `s` must follow there. An edge turning by `θ`
+/// between faces wider than `s` is a sharp edge, `Θ = θ`; where the faces
+/// are narrower (a fine tessellation of a curved surface) the cloth edge
+/// spans `s / w` such edges, `Θ = θ s / w`, which for a smooth surface of
+/// radius `R` (`θ / w = 1 / R`) gives the smooth bound `s² / 4R` again.
+pub fn mesh_offset_requirement(mesh: &TriMesh, spacing: Real) -> Real {
+    let s = spacing * STRETCH;
+    let mut need: Real = 0.0;
+    for (&(a, b), faces) in &edge_faces(mesh) {
+        let [f, g] = match faces.as_slice() {
+            [f, g] => [*f as usize, *g as usize],
+            _ => continue, // boundary or non-manifold edge: no turn to follow
+        };
+        let (nf, ng) = (mesh.face_normal(f), mesh.face_normal(g));
+        let theta = nf.angle(&ng);
+        // Convex if g's far corner lies behind f's plane.
+        let pa = mesh.vertices()[a as usize];
+        let Some(&c) = mesh.triangles()[g].iter().find(|&&i| i != a && i != b) else {
+            continue;
+        };
+        let far = mesh.vertices()[c as usize];
+        if nf.dot(&(far - pa)) > 0.0 || theta < 1e-6 {
+            continue;
+        }
+        let len = (mesh.vertices()[b as usize] - pa).norm();
+        let width = (mesh.double_area(f) + mesh.double_area(g)) / (2.0 * len);
+        let turn = (theta * (s / width).max(1.0)).min(MAX_TURN);
+        need = need.max(0.5 * s * (turn / 2.0).tan());
+    }
+    need
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+    use crate::mesh::{tessellate_box, tessellate_sphere};
+
+    #[test]
+    fn offsets_follow_the_chord_bounds() {
+        let s = 0.1;
+        assert!((default_offset(s, Curvature::Flat) - 0.005).abs() < 1e-15);
+        let box_edge = default_offset(s, Curvature::Sharp(std::f64::consts::FRAC_PI_2));
+        assert!((box_edge - (0.005 + 0.051 * 0.5f64.sqrt())).abs() < 1e-12);
+        assert!(
+            default_offset(s, Curvature::Smooth(1.0)) < default_offset(s, Curvature::Smooth(0.5))
+        );
+        // A cube mesh: chamfer at 90°, (s/2) tan 45° = s/2 (times stretch).
+        let cube = tessellate_box(Vec3::zeros(), Vec3::repeat(1.0), 0.25);
+        assert!((mesh_offset_requirement(&cube, s) - 0.051).abs() < 1e-12);
+        // A fine sphere mesh needs about the smooth requirement, far less
+        // than a sharp edge.
+        let ball = tessellate_sphere(Vec3::zeros(), 0.5, 0.01);
+        let need = mesh_offset_requirement(&ball, s);
+        let smooth = (s * STRETCH).powi(2) / (4.0 * 0.5);
+        assert!(
+            need > 0.5 * smooth && need < 2.5 * smooth,
+            "{need} vs {smooth}"
+        );
+    }
+}
