@@ -137,4 +137,60 @@ mod tests {
         let e = errors(&OK.replace("\"duration\": 1", "\"duration\": 1e999"));
         assert!(!e.is_empty());
     }
+
+    #[test]
+    fn bad_meshes_are_refused_with_the_obstacle_path() {
+        let with = |mesh: &str| {
+            OK.replace(
+                "\"fps\": 10",
+                &format!("\"fps\": 10, \"obstacles\": [{{\"mesh\": {mesh}}}]"),
+            )
+        };
+        let cases = [
+            (
+                r#"{"obj": "v 0 0 0\nf 1 2 3\n"}"#,
+                "obstacles[0].mesh.obj",
+                "OBJ",
+            ),
+            (
+                r#"{"obj": "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"}"#,
+                "obstacles[0].mesh.obj",
+                "degenerate",
+            ),
+            (r#"{"stl": "%%%"}"#, "obstacles[0].mesh.stl", "base64"),
+            (
+                r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,5]]}"#,
+                "obstacles[0].mesh.triangles[0][2]",
+                "out of range",
+            ),
+            (
+                r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,1]]}"#,
+                "obstacles[0].mesh.triangles",
+                "degenerate",
+            ),
+            (
+                r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": []}"#,
+                "obstacles[0].mesh.triangles",
+                "empty",
+            ),
+        ];
+        for (mesh, path, words) in cases {
+            let e = errors(&with(mesh));
+            assert!(
+                e.iter()
+                    .any(|e| e.path == path && e.message.contains(words)),
+                "{mesh}: {e:?}"
+            );
+        }
+        let tetra = r#"{"obj": "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"}"#;
+        load(&with(tetra), &Limits::default()).expect("a tetrahedron is fine");
+        let few = Limits {
+            max_triangles: 3,
+            ..Limits::default()
+        };
+        let e = load(&with(tetra), &few)
+            .expect_err("over the limit")
+            .errors();
+        assert!(e[0].message.contains("limit of 3"), "{e:?}");
+    }
 }
