@@ -1,5 +1,5 @@
 //! Collision benchmarks (issue 3): the hierarchy's query throughput and
-//! the segment–triangle test's, on a sphere mesh of ~20k triangles, and
+//! the segment–triangle test's, on a unit sphere mesh of ~175k triangles, and
 //! whole steps of the sphere drape at 30² and 100² with the cloth resting
 //! on the sphere (after 0.25 s of falling), with the collision share.
 
