@@ -145,7 +145,7 @@ impl Simulation {
 
     /// Replaces the state, to start from a configuration other than the
     /// flat grid (tests, checkpoints). Pins are re-anchored where the new
-    /// state puts them.
+    /// state puts them; contacts are dropped and found again.
     pub fn set_state(&mut self, state: ClothState) {
         assert_eq!(
             state.x.len(),
@@ -161,6 +161,10 @@ impl Simulation {
             .collect();
         self.state = state;
         self.integrator.reset_warm_start();
+        if let Some(stage) = &mut self.collision {
+            // Contacts belong to the old state; the new one finds its own.
+            stage.set_contacts(Vec::new());
+        }
     }
 
     /// Index of the last finished frame (0 before any step).
