@@ -3,12 +3,12 @@
 //! whole steps of the sphere drape at 30² and 100² with the cloth resting
 //! on the sphere (after 0.25 s of falling), with the collision share.
 
+mod common;
+
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use drapery_sim::collision::{Aabb, MeshSurface, Surface, segment_hit};
 use drapery_sim::math::{Real, Vec3};
 use drapery_sim::mesh::tessellate_sphere;
-use drapery_sim::sim::Simulation;
-use drapery_sim::spec::{Limits, Spec};
 
 /// Deterministic pseudo-random segments: short particle paths near the
 /// surface of a unit sphere, as a draped cloth makes.
@@ -31,7 +31,7 @@ fn segments(n: usize) -> Vec<(Vec3, Vec3)> {
 }
 
 fn hierarchy(c: &mut Criterion) {
-    let mesh = tessellate_sphere(Vec3::zeros(), 1.0, 0.015);
+    let mesh = tessellate_sphere(Vec3::zeros(), 1.0, 0.015).expect("tessellates");
     let triangles = mesh.triangles().len();
     let surface = MeshSurface::new(mesh.clone(), Some(0.005), 0.03);
     let segs = segments(10_000);
@@ -72,28 +72,12 @@ fn hierarchy(c: &mut Criterion) {
     group.finish();
 }
 
-fn drape(n: u32) -> (Simulation, Real) {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/scenes/sphere-drape-30.json"
-    );
-    let text = std::fs::read_to_string(path).expect("example scene");
-    let mut spec: Spec = serde_json::from_str(&text).expect("parses");
-    spec.cloth.grid = [n, n];
-    let scene = spec.validate(&Limits::default()).expect("valid");
-    let h = 1.0 / 240.0;
-    let mut sim = Simulation::new(&scene).expect("builds");
-    for _ in 0..60 {
-        sim.step_once(h).expect("steps");
-    }
-    (sim, h)
-}
-
 fn drape_steps(c: &mut Criterion) {
     let mut group = c.benchmark_group("sphere_drape_step");
     group.sample_size(10);
     for n in [30u32, 100] {
-        let (mut sim, h) = drape(n);
+        let h = 1.0 / 240.0;
+        let mut sim = common::example_sim("sphere-drape-30", n, |_| {}, h, 60);
         let r = sim.step_once(h).expect("steps");
         eprintln!(
             "{n}x{n}: {} CG iterations, {} contacts, collision {:.1} % of the step",

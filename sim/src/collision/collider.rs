@@ -76,27 +76,21 @@ impl Collider {
 /// viewer draws.
 pub fn display_mesh(o: &Obstacle, edge: Real, extent: Real) -> Result<TriMesh, MeshError> {
     if let Some(s) = &o.sphere {
-        return Ok(tessellate_sphere(s.center.into(), s.radius, edge));
+        return tessellate_sphere(s.center.into(), s.radius, edge);
     }
     if let Some(b) = &o.box_ {
-        return Ok(tessellate_box(b.center.into(), b.size.into(), edge));
+        return tessellate_box(b.center.into(), b.size.into(), edge);
     }
     if let Some(p) = &o.plane {
-        return Ok(tessellate_plane(
+        return tessellate_plane(
             p.point.into(),
             p.normal.into(),
             extent,
             edge.max(extent / 64.0),
-        ));
+        );
     }
     if let Some(c) = &o.cylinder {
-        return Ok(tessellate_cylinder(
-            c.center.into(),
-            c.axis.into(),
-            c.radius,
-            c.height,
-            edge,
-        ));
+        return tessellate_cylinder(c.center.into(), c.axis.into(), c.radius, c.height, edge);
     }
     from_source(
         o.mesh

@@ -9,6 +9,8 @@
 //! nearest feature (face, edge or vertex; Bærentzen and Aanæs 2005), which
 //! is correct for closed meshes at any query point.
 
+use std::collections::HashMap;
+
 use super::aabb::Aabb;
 use super::bvh::Bvh;
 use super::surface::{Hit, Projection, Surface};
@@ -30,12 +32,13 @@ struct Sided {
 }
 
 impl Sided {
-    fn new(mesh: TriMesh) -> Self {
+    /// `faces_of`: the topology's edge map, shared by the true and the
+    /// offset mesh.
+    fn new(mesh: TriMesh, faces_of: &HashMap<(u32, u32), Vec<u32>>) -> Self {
         let face: Vec<Vec3> = (0..mesh.triangles().len())
             .map(|k| mesh.face_normal(k))
             .collect();
         let vertex = angle_weighted_normals(&mesh);
-        let faces_of = edge_faces(&mesh);
         let edge = mesh
             .triangles()
             .iter()
@@ -103,12 +106,13 @@ impl MeshSurface {
             .map(|(v, n)| v + n * delta)
             .collect();
         let offset_mesh = mesh.with_vertices(moved);
+        let faces_of = edge_faces(&mesh);
         let boxes: Vec<Aabb> = (0..mesh.triangles().len())
             .map(|k| Aabb::of_points(mesh.corners(k).iter().chain(offset_mesh.corners(k).iter())))
             .collect();
         Self {
-            real: Sided::new(mesh),
-            offset: Sided::new(offset_mesh),
+            real: Sided::new(mesh, &faces_of),
+            offset: Sided::new(offset_mesh, &faces_of),
             bvh: Bvh::build(&boxes),
             delta,
             slack: 1e-3 * delta + 1e-12,
@@ -186,10 +190,6 @@ impl Surface for MeshSurface {
     fn true_distance(&self, p: &Vec3, nodes: &mut u64) -> Real {
         self.nearest(&self.real, p, nodes).distance
     }
-
-    fn has_hierarchy(&self) -> bool {
-        true
-    }
 }
 
 #[cfg(test)]
@@ -202,7 +202,7 @@ mod tests {
     fn signed_distance_of_a_box_mesh_matches_the_exact_box() {
         let half = Vec3::new(0.5, 0.3, 0.2);
         let s = MeshSurface::new(
-            tessellate_box(Vec3::zeros(), half * 2.0, 0.13),
+            tessellate_box(Vec3::zeros(), half * 2.0, 0.13).expect("tessellates"),
             Some(0.0),
             0.1,
         );
@@ -229,7 +229,11 @@ mod tests {
 
     #[test]
     fn offset_sphere_mesh_is_hit_at_radius_plus_delta() {
-        let s = MeshSurface::new(tessellate_sphere(Vec3::zeros(), 1.0, 0.02), Some(0.05), 0.1);
+        let s = MeshSurface::new(
+            tessellate_sphere(Vec3::zeros(), 1.0, 0.02).expect("tessellates"),
+            Some(0.05),
+            0.1,
+        );
         let mut nodes = 0;
         for dir in [
             Vec3::z(),
@@ -259,7 +263,8 @@ mod brute_force {
         let mut rng = StdRng::seed_from_u64(3);
         for trial in 0..4 {
             // A bumpy sphere: a random closed mesh with concave parts.
-            let base = tessellate_sphere(Vec3::zeros(), 0.5, 0.12 + 0.03 * trial as Real);
+            let base = tessellate_sphere(Vec3::zeros(), 0.5, 0.12 + 0.03 * trial as Real)
+                .expect("tessellates");
             let bumped: Vec<Vec3> = base
                 .vertices()
                 .iter()

@@ -59,16 +59,6 @@ pub struct CollisionCounters {
     pub redone: usize,
 }
 
-impl CollisionCounters {
-    /// Adds another step's counters.
-    pub fn add(&mut self, o: &CollisionCounters) {
-        self.nodes += o.nodes;
-        self.new += o.new;
-        self.released += o.released;
-        self.redone += o.redone;
-    }
-}
-
 /// The obstacles and the contact set of a running simulation.
 #[derive(Debug)]
 pub struct CollisionStage {
@@ -76,9 +66,10 @@ pub struct CollisionStage {
     contacts: Vec<Contact>,
     /// This step's geometry of each contact (parallel to `contacts`).
     plans: Vec<Plan>,
-    /// This step's poses (start, end) and whether the obstacle can touch
-    /// the cloth at all.
+    /// This step's poses (start, end), the box each obstacle sweeps over
+    /// the step, and whether that box meets the cloth's at all.
     poses: Vec<(Pose, Pose)>,
+    swept: Vec<Aabb>,
     active: Vec<bool>,
     /// Predicted end positions.
     predicted: Vec<Vec3>,
@@ -112,6 +103,7 @@ impl CollisionStage {
             contacts: Vec::new(),
             plans: Vec::new(),
             poses: vec![(Pose::identity(), Pose::identity()); n],
+            swept: vec![Aabb::empty(); n],
             active: vec![true; n],
             predicted: Vec::new(),
             max_push: MAX_PUSH * spacing,
@@ -145,8 +137,8 @@ impl CollisionStage {
                 self.poses[k] = (c.trajectory.pose(t), c.trajectory.pose(t + h));
             }
             let (p0, p1) = &self.poses[k];
-            let bounds = c.world_bounds(p0).union(&c.world_bounds(p1));
-            self.active[k] = bounds.overlaps(cloth);
+            self.swept[k] = c.world_bounds(p0).union(&c.world_bounds(p1));
+            self.active[k] = self.swept[k].overlaps(cloth);
         }
     }
 
@@ -198,7 +190,7 @@ impl CollisionStage {
             }
             let c = &self.colliders[k];
             let (p0, p1) = self.poses[k];
-            let world = c.world_bounds(&p0).union(&c.world_bounds(&p1));
+            let world = self.swept[k];
             let local_bounds = c.surface.bounds();
             for i in 0..a.len() {
                 if pinned[i]

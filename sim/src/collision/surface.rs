@@ -49,10 +49,4 @@ pub trait Surface: Debug + Send + Sync {
 
     /// Signed distance from `p` to the true (not offset) surface.
     fn true_distance(&self, p: &Vec3, nodes: &mut u64) -> Real;
-
-    /// Triangles visited per hierarchy query are counted as nodes; exact
-    /// shapes have no hierarchy.
-    fn has_hierarchy(&self) -> bool {
-        false
-    }
 }

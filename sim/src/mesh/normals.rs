@@ -49,7 +49,7 @@ mod tests {
         // Whatever the triangulation of the faces, a cube corner's
         // angle-weighted normal is the diagonal (each face contributes
         // a right angle).
-        let m = tessellate_box(Vec3::zeros(), Vec3::repeat(2.0), 0.7);
+        let m = tessellate_box(Vec3::zeros(), Vec3::repeat(2.0), 0.7).expect("tessellates");
         let normals = angle_weighted_normals(&m);
         for (v, n) in m.vertices().iter().zip(&normals) {
             if v.iter().all(|c| (c.abs() - 1.0).abs() < 1e-12) {

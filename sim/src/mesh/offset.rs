@@ -111,11 +111,11 @@ mod tests {
             default_offset(s, Curvature::Smooth(1.0)) < default_offset(s, Curvature::Smooth(0.5))
         );
         // A cube mesh: chamfer at 90°, (s/2) tan 45° = s/2 (times stretch).
-        let cube = tessellate_box(Vec3::zeros(), Vec3::repeat(1.0), 0.25);
+        let cube = tessellate_box(Vec3::zeros(), Vec3::repeat(1.0), 0.25).expect("tessellates");
         assert!((mesh_offset_requirement(&cube, s) - 0.051).abs() < 1e-12);
         // A fine sphere mesh needs about the smooth requirement, far less
         // than a sharp edge.
-        let ball = tessellate_sphere(Vec3::zeros(), 0.5, 0.01);
+        let ball = tessellate_sphere(Vec3::zeros(), 0.5, 0.01).expect("tessellates");
         let need = mesh_offset_requirement(&ball, s);
         let smooth = (s * STRETCH).powi(2) / (4.0 * 0.5);
         assert!(

@@ -4,11 +4,13 @@
 //! exactly (`collision::analytic`); these meshes are their picture.
 //!
 //! Every mesh is closed (except the plane's square), shares vertices
-//! between faces, and is oriented outward.
+//! between faces, and is oriented outward. Sizes that give no usable mesh
+//! (zero, negative or non-finite, or beyond `TriMesh`'s coordinate bound)
+//! are an error, not a panic.
 
 use std::collections::HashMap;
 
-use super::trimesh::TriMesh;
+use super::trimesh::{MeshError, TriMesh};
 use crate::math::{Real, Vec3};
 
 /// Fewest segments around any curve, so coarse targets still look round.
@@ -18,10 +20,8 @@ fn segments(length: Real, edge: Real) -> usize {
     ((length / edge).ceil() as usize).clamp(1, 4096)
 }
 
-fn finish(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> TriMesh {
-    // The constructions below cannot produce a bad mesh from validated
-    // (finite, positive) sizes.
-    TriMesh::new(vertices, triangles).unwrap_or_else(|e| panic!("primitive tessellation: {e}"))
+fn finish(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<TriMesh, MeshError> {
+    TriMesh::new(vertices, triangles)
 }
 
 /// Pushes `t`, flipped if needed so its normal points along `outward`.
@@ -35,7 +35,7 @@ fn push_oriented(v: &[Vec3], tris: &mut Vec<[u32; 3]>, t: [u32; 3], outward: Vec
 }
 
 /// A UV sphere.
-pub fn tessellate_sphere(center: Vec3, radius: Real, edge: Real) -> TriMesh {
+pub fn tessellate_sphere(center: Vec3, radius: Real, edge: Real) -> Result<TriMesh, MeshError> {
     let lat = segments(std::f64::consts::PI * radius, edge).max(MIN_SEGMENTS / 2);
     let lon = segments(std::f64::consts::TAU * radius, edge).max(MIN_SEGMENTS);
     let mut v = vec![center + Vec3::z() * radius, center - Vec3::z() * radius];
@@ -68,7 +68,7 @@ pub fn tessellate_sphere(center: Vec3, radius: Real, edge: Real) -> TriMesh {
 }
 
 /// An axis-aligned box, every face a grid.
-pub fn tessellate_box(center: Vec3, size: Vec3, edge: Real) -> TriMesh {
+pub fn tessellate_box(center: Vec3, size: Vec3, edge: Real) -> Result<TriMesh, MeshError> {
     let n = [0, 1, 2].map(|k| segments(size[k], edge));
     let lo = center - size / 2.0;
     let mut index: HashMap<[usize; 3], u32> = HashMap::new();
@@ -128,7 +128,7 @@ pub fn tessellate_cylinder(
     radius: Real,
     height: Real,
     edge: Real,
-) -> TriMesh {
+) -> Result<TriMesh, MeshError> {
     let a = axis.normalize();
     let (e1, e2) = frame_of(&a);
     let around = segments(std::f64::consts::TAU * radius, edge).max(MIN_SEGMENTS);
@@ -163,7 +163,12 @@ pub fn tessellate_cylinder(
 
 /// A square of side `2 half` on a plane, facing along `normal`: the visible
 /// part of an infinite plane.
-pub fn tessellate_plane(point: Vec3, normal: Vec3, half: Real, edge: Real) -> TriMesh {
+pub fn tessellate_plane(
+    point: Vec3,
+    normal: Vec3,
+    half: Real,
+    edge: Real,
+) -> Result<TriMesh, MeshError> {
     let n = normal.normalize();
     let (e1, e2) = frame_of(&n);
     let k = segments(2.0 * half, edge).min(256);
@@ -217,20 +222,26 @@ mod tests {
     #[test]
     fn primitives_are_closed_outward_and_fine_enough() {
         let c = Vec3::new(0.1, -0.2, 0.3);
-        let s = tessellate_sphere(c, 0.5, 0.05);
+        let s = tessellate_sphere(c, 0.5, 0.05).expect("tessellates");
         let exact = 4.0 / 3.0 * std::f64::consts::PI * 0.125;
         assert!((volume(&s) - exact).abs() / exact < 0.01);
         assert!(max_edge(&s) < 0.05 * 1.01 * std::f64::consts::PI / 3.0 * 2.0);
 
-        let b = tessellate_box(c, Vec3::new(1.0, 0.5, 0.25), 0.1);
+        let b = tessellate_box(c, Vec3::new(1.0, 0.5, 0.25), 0.1).expect("tessellates");
         assert!((volume(&b) - 0.125).abs() < 1e-12);
         assert!(max_edge(&b) <= 0.1 * 2f64.sqrt() + 1e-12);
 
-        let y = tessellate_cylinder(c, Vec3::new(0.0, 1.0, 1.0), 0.2, 0.6, 0.02);
+        let y =
+            tessellate_cylinder(c, Vec3::new(0.0, 1.0, 1.0), 0.2, 0.6, 0.02).expect("tessellates");
         let exact = std::f64::consts::PI * 0.04 * 0.6;
         assert!((volume(&y) - exact).abs() / exact < 0.01);
 
-        let p = tessellate_plane(c, Vec3::new(0.0, 0.0, 2.0), 1.0, 0.25);
+        let p = tessellate_plane(c, Vec3::new(0.0, 0.0, 2.0), 1.0, 0.25).expect("tessellates");
         assert!((0..p.triangles().len()).all(|k| p.face_normal(k).z > 0.999));
+
+        // Unusable sizes are errors.
+        assert!(tessellate_sphere(c, 0.0, 0.05).is_err());
+        assert!(tessellate_box(c, Vec3::new(1.0, Real::NAN, 1.0), 0.1).is_err());
+        assert!(tessellate_cylinder(c, Vec3::z(), 1.0, 1.0e7, 1.0e5).is_err());
     }
 }
