@@ -66,11 +66,10 @@ pub struct CollisionStage {
     contacts: Vec<Contact>,
     /// This step's geometry of each contact (parallel to `contacts`).
     plans: Vec<Plan>,
-    /// This step's poses (start, end), the box each obstacle sweeps over
-    /// the step, and whether that box meets the cloth's at all.
+    /// This step's poses (start, end) and the box each obstacle sweeps
+    /// over the step.
     poses: Vec<(Pose, Pose)>,
     swept: Vec<Aabb>,
-    active: Vec<bool>,
     /// Predicted end positions.
     predicted: Vec<Vec3>,
     /// Largest push-out per step (see [`MAX_PUSH`]).
@@ -104,7 +103,6 @@ impl CollisionStage {
             plans: Vec::new(),
             poses: vec![(Pose::identity(), Pose::identity()); n],
             swept: vec![Aabb::empty(); n],
-            active: vec![true; n],
             predicted: Vec::new(),
             max_push: MAX_PUSH * spacing,
             counters: CollisionCounters::default(),
@@ -131,14 +129,13 @@ impl CollisionStage {
         std::mem::take(&mut self.counters)
     }
 
-    fn set_poses(&mut self, t: Real, h: Real, cloth: &Aabb) {
+    fn set_poses(&mut self, t: Real, h: Real) {
         for (k, c) in self.colliders.iter().enumerate() {
             if !c.is_static {
                 self.poses[k] = (c.trajectory.pose(t), c.trajectory.pose(t + h));
             }
             let (p0, p1) = &self.poses[k];
             self.swept[k] = c.world_bounds(p0).union(&c.world_bounds(p1));
-            self.active[k] = self.swept[k].overlaps(cloth);
         }
     }
 
@@ -172,7 +169,7 @@ impl CollisionStage {
     }
 
     /// Tests every free particle's path `a[i] -> b[i]` against every
-    /// active obstacle. Returns `(particle, obstacle)` for each crossing
+    /// obstacle whose swept box meets the paths' box. Returns `(particle, obstacle)` for each crossing
     /// that `accept(obstacle, end)` keeps, where `end` is the path's end
     /// in the obstacle's frame.
     fn crossings(
@@ -184,8 +181,10 @@ impl CollisionStage {
         mut accept: impl FnMut(&Collider, &Vec3, &mut u64) -> bool,
     ) -> Vec<(u32, u32)> {
         let mut found = Vec::new();
+        // The paths' box: an obstacle sweeping clear of it is skipped whole.
+        let cloth = Aabb::of_points(a).union(&Aabb::of_points(b));
         for k in 0..self.colliders.len() {
-            if !self.active[k] {
+            if !self.swept[k].overlaps(&cloth) {
                 continue;
             }
             let c = &self.colliders[k];
@@ -256,8 +255,7 @@ impl CollisionStage {
         let mut predicted = std::mem::take(&mut self.predicted);
         predicted.clear();
         predicted.extend((0..x.len()).map(|i| x[i] + (v[i] + dv_guess[i]) * h));
-        let cloth = Aabb::of_points(x).union(&Aabb::of_points(&predicted));
-        self.set_poses(t, h, &cloth);
+        self.set_poses(t, h);
         let new = self.crossings(x, &predicted, pinned, true, |_, _, _| true);
         self.predicted = predicted;
         self.add_contacts(&new);
