@@ -48,6 +48,8 @@ pub enum Format {
     Obj,
     /// `cloth.pc2` point cache plus `cloth.obj` with the topology.
     Pc2,
+    /// `cloth.glb`: binary glTF, frames as morph targets with an animation.
+    Glb,
 }
 
 /// `drapery validate`.

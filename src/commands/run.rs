@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use drapery_sim::export::{Pc2Writer, write_obj};
+use drapery_sim::export::{Pc2Writer, write_glb, write_obj};
 use drapery_sim::sim::{Control, Progress, Simulation};
 use drapery_sim::spec::Limits;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -53,7 +53,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let mut rec = sim.recorder();
     let outcome = sim.run(&control, &mut rec, |s, stats| {
-        sink.write(stats.frame, &s.state().x)
+        sink.write(stats.frame, stats.time, &s.state().x)
     });
     let outcome = outcome
         .map_err(anyhow::Error::from)
@@ -111,6 +111,13 @@ enum FrameSink<'a> {
         triangles: &'a [[u32; 3]],
     },
     Pc2(Pc2Writer<BufWriter<File>>),
+    /// glTF needs every frame before it can be written: kept as f32.
+    Glb {
+        out: &'a Path,
+        triangles: &'a [[u32; 3]],
+        times: Vec<f64>,
+        frames: Vec<Vec<[f32; 3]>>,
+    },
 }
 
 impl<'a> FrameSink<'a> {
@@ -145,10 +152,21 @@ impl<'a> FrameSink<'a> {
                     frames,
                 )?))
             }
+            Format::Glb => Ok(FrameSink::Glb {
+                out,
+                triangles,
+                times: Vec::with_capacity(frames),
+                frames: Vec::with_capacity(frames),
+            }),
         }
     }
 
-    fn write(&mut self, frame: usize, x: &[drapery_sim::math::Vec3]) -> anyhow::Result<()> {
+    fn write(
+        &mut self,
+        frame: usize,
+        time: f64,
+        x: &[drapery_sim::math::Vec3],
+    ) -> anyhow::Result<()> {
         match self {
             FrameSink::Obj { dir, triangles } => {
                 let path = dir.join("frames").join(format!("frame_{frame:05}.obj"));
@@ -160,6 +178,11 @@ impl<'a> FrameSink<'a> {
                 Ok(())
             }
             FrameSink::Pc2(w) => Ok(w.write_frame(x)?),
+            FrameSink::Glb { times, frames, .. } => {
+                times.push(time);
+                frames.push(x.iter().map(|p| p.map(|c| c as f32).into()).collect());
+                Ok(())
+            }
         }
     }
 
@@ -168,6 +191,20 @@ impl<'a> FrameSink<'a> {
             FrameSink::Obj { .. } => Ok(()),
             FrameSink::Pc2(w) => {
                 w.finish()?;
+                Ok(())
+            }
+            FrameSink::Glb {
+                out,
+                triangles,
+                times,
+                frames,
+            } => {
+                let path = out.join("cloth.glb");
+                let mut w = BufWriter::new(
+                    File::create(&path).with_context(|| format!("creating {}", path.display()))?,
+                );
+                write_glb(&mut w, triangles, &times, &frames)?;
+                w.flush()?;
                 Ok(())
             }
         }

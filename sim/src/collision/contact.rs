@@ -25,7 +25,7 @@ use crate::math::{Real, Vec3};
 use crate::solver::{Constraints, Filter};
 
 /// A particle held by an obstacle.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
     /// The particle.
     pub particle: u32,

@@ -30,6 +30,9 @@ pub enum SimError {
         /// What was wrong.
         message: String,
     },
+    /// A checkpoint does not fit the scene.
+    #[error("checkpoint {0}")]
+    Checkpoint(String),
     /// The frame consumer failed (for example, a disk write).
     #[error("frame output failed: {0}")]
     Output(String),

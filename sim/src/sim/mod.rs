@@ -5,11 +5,13 @@
 //! Scene -> Simulation::new -> (advance_frame)* -> FrameStats per frame -> RunStats
 //! ```
 
+mod checkpoint;
 mod control;
 mod error;
 mod simulation;
 mod stats;
 
+pub use checkpoint::Checkpoint;
 pub use control::{Control, Progress};
 pub use error::SimError;
 pub use simulation::Simulation;

@@ -517,6 +517,35 @@ impl Simulation {
         rec
     }
 
+    /// Where the pins are held.
+    pub(crate) fn anchors(&self) -> &[Vec3] {
+        &self.anchors
+    }
+
+    /// The next solve's warm start.
+    pub(crate) fn warm_start(&self) -> &[Vec3] {
+        self.integrator.last_dv()
+    }
+
+    /// The adaptive controller's level and run of easy steps.
+    pub(crate) fn adaptive_state(&self) -> (u32, u32) {
+        (self.level, self.easy_steps)
+    }
+
+    /// Puts a checked checkpoint in place (see `checkpoint.rs`).
+    pub(crate) fn restore_checkpoint(&mut self, c: super::Checkpoint) {
+        self.frame = c.frame;
+        self.steps = c.steps;
+        self.state = c.state;
+        self.anchors = c.anchors;
+        if let Some(stage) = &mut self.collision {
+            stage.set_contacts(c.contacts);
+        }
+        self.integrator.set_warm_start(&c.warm_start);
+        self.level = c.level;
+        self.easy_steps = c.easy_steps;
+    }
+
     /// The collision stage, if the scene has one.
     pub fn collision(&self) -> Option<&CollisionStage> {
         self.collision.as_ref()

@@ -1,12 +1,12 @@
 //! Per-frame and whole-run statistics: the fields of DESIGN.md's
 //! `stats.json`, plus stage timings.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::solver::StageTimes;
 
 /// One output frame's statistics.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameStats {
     /// Frame index (0 is the initial state).
     pub frame: usize,

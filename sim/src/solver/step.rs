@@ -147,6 +147,14 @@ impl Integrator {
         &self.dv
     }
 
+    /// Restores a velocity change as the next solve's warm start (a
+    /// checkpoint resumed); ignored if its length does not match.
+    pub fn set_warm_start(&mut self, dv: &[Vec3]) {
+        if dv.len() == self.dv.len() {
+            self.dv.copy_from_slice(dv);
+        }
+    }
+
     /// Forgets the warm start (after a rejected step or a teleport).
     pub fn reset_warm_start(&mut self) {
         self.dv.fill(Vec3::zeros());
