@@ -129,7 +129,7 @@ pub fn write_glb<W: Write>(
     doc["buffers"] = json!([{ "byteLength": bin.0.len() }]);
 
     let mut text = serde_json::to_vec(&doc).map_err(io::Error::other)?;
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
     let total = 12 + 8 + text.len() + 8 + bin.0.len();
@@ -161,7 +161,7 @@ impl Bin {
         let offset = self.0.len();
         fill(&mut self.0);
         let length = self.0.len() - offset;
-        while self.0.len() % 4 != 0 {
+        while !self.0.len().is_multiple_of(4) {
             self.0.push(0);
         }
         let mut v = json!({ "buffer": 0, "byteOffset": offset, "byteLength": length });
