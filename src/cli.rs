@@ -23,6 +23,20 @@ pub enum Command {
     Run(RunArgs),
     /// Check a job spec and print every error.
     Validate(ValidateArgs),
+    /// Run the simulation service (HTTP API, WebSocket streams, workers).
+    Serve(ServeArgs),
+    /// Print the service's OpenAPI document, or write it and the job
+    /// schema into a directory (`api/`).
+    Openapi(OpenapiArgs),
+}
+
+/// `drapery openapi`.
+#[derive(Debug, Args)]
+pub struct OpenapiArgs {
+    /// Write `openapi.yaml` and `job.schema.json` into this directory
+    /// instead of printing the document.
+    #[arg(long)]
+    pub write: Option<PathBuf>,
 }
 
 /// `drapery run`.
@@ -57,4 +71,59 @@ pub enum Format {
 pub struct ValidateArgs {
     /// The job spec (JSON).
     pub spec: PathBuf,
+}
+
+/// `drapery serve`: every flag can also be set through the environment
+/// variable named beside it (a container's usual configuration).
+#[derive(Debug, Clone, Args)]
+pub struct ServeArgs {
+    /// Address to listen on; port 0 picks a free port (printed at start).
+    #[arg(long, env = "DRAPERY_ADDR", default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
+    /// Solver worker threads; default: the machine's cores.
+    #[arg(long, env = "DRAPERY_WORKERS")]
+    pub workers: Option<usize>,
+    /// Directory of the job database (created if missing).
+    #[arg(long, env = "DRAPERY_DATA", default_value = "drapery-data")]
+    pub data: PathBuf,
+    /// Jobs that may wait for a worker; beyond it, submissions get 429.
+    #[arg(long, env = "DRAPERY_QUEUE_CAPACITY", default_value_t = 64)]
+    pub queue_capacity: usize,
+    /// Largest cloth of a job, in particles.
+    #[arg(long, env = "DRAPERY_MAX_PARTICLES", default_value_t = 250_000)]
+    pub max_particles: usize,
+    /// Largest total obstacle triangle count of a job.
+    #[arg(long, env = "DRAPERY_MAX_TRIANGLES", default_value_t = 2_000_000)]
+    pub max_triangles: usize,
+    /// Longest simulated duration of a job, seconds.
+    #[arg(long, env = "DRAPERY_MAX_DURATION", default_value_t = 600.0)]
+    pub max_duration: f64,
+    /// Most output frames of a job.
+    #[arg(long, env = "DRAPERY_MAX_FRAMES", default_value_t = 20_000)]
+    pub max_frames: usize,
+    /// Longest wall time a job may run before it is failed, seconds.
+    #[arg(long, env = "DRAPERY_MAX_WALL_SECONDS", default_value_t = 3600.0)]
+    pub max_wall_seconds: f64,
+    /// Largest request body, bytes.
+    #[arg(long, env = "DRAPERY_MAX_BODY_BYTES", default_value_t = 32 << 20)]
+    pub max_body_bytes: usize,
+    /// API keys as `NAME:SECRET` (or a bare secret); with any set, every
+    /// `/v1` call needs `Authorization: Bearer SECRET` and sees only its own
+    /// jobs. Comma-separated in the environment.
+    #[arg(long = "api-key", env = "DRAPERY_API_KEYS", value_delimiter = ',')]
+    pub api_keys: Vec<String>,
+    /// Origins allowed by CORS (`*` for any); none: no CORS headers.
+    #[arg(
+        long = "cors-origin",
+        env = "DRAPERY_CORS_ORIGINS",
+        value_delimiter = ','
+    )]
+    pub cors_origins: Vec<String>,
+    /// Wall seconds between checkpoints of a running job.
+    #[arg(long, env = "DRAPERY_CHECKPOINT_SECONDS", default_value_t = 2.0)]
+    pub checkpoint_seconds: f64,
+    /// On SIGTERM/SIGINT, how long running jobs get to reach a frame and
+    /// checkpoint before the server exits anyway, seconds.
+    #[arg(long, env = "DRAPERY_SHUTDOWN_GRACE", default_value_t = 20.0)]
+    pub shutdown_grace: f64,
 }

@@ -12,6 +12,8 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Run(args) => commands::run::run(&args),
         Command::Validate(args) => commands::validate::run(&args),
+        Command::Serve(args) => drapery::service::serve(&args),
+        Command::Openapi(args) => commands::openapi::run(&args),
     };
     match result {
         Ok(code) => code,

@@ -20,6 +20,7 @@
 use serde::{Deserialize, Deserializer, Serialize};
 
 /// A material as written in a spec: a preset name or explicit parameters.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum MaterialSpec {
@@ -30,6 +31,7 @@ pub enum MaterialSpec {
 }
 
 /// Physical, resolution-independent material parameters (SI units).
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialParams {

@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 /// A rigid obstacle.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Obstacle {
@@ -38,6 +39,7 @@ pub struct Obstacle {
 }
 
 /// A sphere.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Sphere {
@@ -48,6 +50,7 @@ pub struct Sphere {
 }
 
 /// An axis-aligned box.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxShape {
@@ -58,6 +61,7 @@ pub struct BoxShape {
 }
 
 /// An infinite plane.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Plane {
@@ -68,6 +72,7 @@ pub struct Plane {
 }
 
 /// A closed cylinder.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Cylinder {
@@ -82,6 +87,7 @@ pub struct Cylinder {
 }
 
 /// A triangle mesh, given one of three ways.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSource {
@@ -100,6 +106,7 @@ pub struct MeshSource {
 }
 
 /// Rigid motion: constant velocities, or keyframes.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motion {
@@ -118,6 +125,7 @@ pub struct Motion {
 }
 
 /// A pose at a time.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Keyframe {

@@ -9,6 +9,7 @@ use super::material::MaterialSpec;
 use super::obstacle::Obstacle;
 
 /// A whole job: one cloth, its material, the obstacles, and how to solve.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Spec {
@@ -42,6 +43,7 @@ fn default_gravity() -> [f64; 3] {
 pub type Pin = [u32; 2];
 
 /// The cloth as a rectangular grid of particles at thread crossings (§1).
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClothSpec {
@@ -60,10 +62,12 @@ pub struct ClothSpec {
     pub v: Option<[f64; 3]>,
     /// Particles held in place.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schema(value_type = Vec<[u32; 2]>))]
     pub pinned: Vec<Pin>,
 }
 
 /// Solver settings; every field has a default.
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSpec {
@@ -111,6 +115,7 @@ fn yes() -> bool {
 }
 
 /// Preconditioners the PCG can use (method.md §2).
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PreconditionerKind {
@@ -186,3 +191,29 @@ impl<'de> Deserialize<'de> for TimeStep {
         d.deserialize_any(V)
     }
 }
+
+#[cfg(feature = "schema")]
+impl utoipa::PartialSchema for TimeStep {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::schema::{ObjectBuilder, OneOfBuilder, Type};
+        OneOfBuilder::new()
+            .item(
+                ObjectBuilder::new()
+                    .schema_type(Type::Number)
+                    .exclusive_minimum(Some(0.0))
+                    .description(Some("Fixed step in seconds")),
+            )
+            .item(
+                ObjectBuilder::new()
+                    .schema_type(Type::String)
+                    .enum_values(Some(["adaptive"]))
+                    .description(Some(
+                        "Steps halve on trouble and grow back when the solve is easy",
+                    )),
+            )
+            .into()
+    }
+}
+
+#[cfg(feature = "schema")]
+impl utoipa::ToSchema for TimeStep {}

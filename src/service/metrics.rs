@@ -1,0 +1,125 @@
+//! Prometheus metrics (`GET /metrics`), through `prometheus-client`.
+//!
+//! Counters and the step-time histogram are updated where things happen;
+//! jobs by status and queue depth are read when scraped, from the store
+//! and the queue, so they are right after a restart too.
+
+use prometheus_client::encoding::EncodeLabelSet;
+use prometheus_client::metrics::counter::Counter;
+use prometheus_client::metrics::family::Family;
+use prometheus_client::metrics::gauge::Gauge;
+use prometheus_client::metrics::histogram::{Histogram, exponential_buckets};
+use prometheus_client::registry::Registry;
+
+use super::job::Status;
+
+#[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
+struct StatusLabel {
+    status: &'static str,
+}
+
+/// The service's metrics.
+#[derive(Debug)]
+pub struct Metrics {
+    registry: Registry,
+    jobs: Family<StatusLabel, Gauge>,
+    queue_depth: Gauge,
+    workers_busy: Gauge,
+    /// Jobs accepted by `POST /v1/jobs`.
+    pub submitted: Counter,
+    /// Submissions refused because the queue was full.
+    pub rejected_queue_full: Counter,
+    /// Frames stored.
+    pub frames: Counter,
+    /// Wall time of one solver step (a frame's step time over its steps).
+    pub step_seconds: Histogram,
+}
+
+impl Default for Metrics {
+    fn default() -> Self {
+        let mut registry = Registry::with_prefix("drapery");
+        let jobs = Family::<StatusLabel, Gauge>::default();
+        let queue_depth = Gauge::default();
+        let workers_busy = Gauge::default();
+        let submitted = Counter::default();
+        let rejected_queue_full = Counter::default();
+        let frames = Counter::default();
+        // 10 µs .. ~40 s: a 10x10 cloth's step up to a huge one's.
+        let step_seconds = Histogram::new(exponential_buckets(1e-5, 2.5, 17));
+        registry.register("jobs", "Jobs in the store by status", jobs.clone());
+        registry.register(
+            "queue_depth",
+            "Jobs waiting for a worker",
+            queue_depth.clone(),
+        );
+        registry.register(
+            "workers_busy",
+            "Workers running a job",
+            workers_busy.clone(),
+        );
+        registry.register("jobs_submitted", "Jobs accepted", submitted.clone());
+        registry.register(
+            "jobs_rejected_queue_full",
+            "Submissions refused with 429",
+            rejected_queue_full.clone(),
+        );
+        registry.register("frames", "Frames stored", frames.clone());
+        registry.register(
+            "step_seconds",
+            "Wall time of one solver step",
+            step_seconds.clone(),
+        );
+        Self {
+            registry,
+            jobs,
+            queue_depth,
+            workers_busy,
+            submitted,
+            rejected_queue_full,
+            frames,
+            step_seconds,
+        }
+    }
+}
+
+impl Metrics {
+    /// The text exposition, with the scrape-time gauges set first.
+    pub fn render(&self, by_status: &[(Status, u64)], queue: usize, busy: usize) -> String {
+        for s in Status::ALL {
+            let n = by_status
+                .iter()
+                .find(|(t, _)| *t == s)
+                .map_or(0, |(_, n)| *n);
+            self.jobs
+                .get_or_create(&StatusLabel { status: s.as_str() })
+                .set(n as i64);
+        }
+        self.queue_depth.set(queue as i64);
+        self.workers_busy.set(busy as i64);
+        let mut out = String::new();
+        // Writing to a String cannot fail.
+        let _ = prometheus_client::encoding::text::encode(&mut out, &self.registry);
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposition_has_every_status_and_the_histogram() {
+        let m = Metrics::default();
+        m.frames.inc_by(3);
+        m.step_seconds.observe(0.002);
+        let text = m.render(&[(Status::Succeeded, 2)], 1, 0);
+        assert!(
+            text.contains("drapery_jobs{status=\"succeeded\"} 2"),
+            "{text}"
+        );
+        assert!(text.contains("drapery_jobs{status=\"queued\"} 0"), "{text}");
+        assert!(text.contains("drapery_queue_depth 1"), "{text}");
+        assert!(text.contains("drapery_frames_total 3"), "{text}");
+        assert!(text.contains("drapery_step_seconds_count 1"), "{text}");
+    }
+}

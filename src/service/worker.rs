@@ -1,0 +1,292 @@
+//! The worker pool: OS threads that take queued jobs, run the solver, and
+//! store every frame as it is produced.
+//!
+//! A job resumes from its stored checkpoint when it has one (after a
+//! restart or a shutdown), so frames already stored are not redone except
+//! those after the checkpoint, which come out identical (the checkpoint
+//! holds everything the steps read) and replace their copies. A panic in a
+//! job fails that job only; the worker goes on to the next.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use drapery_sim::math::Vec3;
+use drapery_sim::sim::{Checkpoint, Control, FrameStats, SimError, Simulation};
+use drapery_sim::spec::Limits;
+use serde_json::json;
+use tracing::{error, info, info_span, warn};
+
+use super::job::{JobError, Status, now};
+use super::queue::Queued;
+use super::state::{RunHandle, Shared, StopReason};
+use super::store::{Ending, JobRow, StoredFrame};
+use crate::specfile;
+
+/// Starts `n` workers.
+pub fn spawn(shared: &Arc<Shared>, n: usize) -> Vec<std::thread::JoinHandle<()>> {
+    (0..n)
+        .map(|k| {
+            let shared = Arc::clone(shared);
+            std::thread::Builder::new()
+                .name(format!("worker-{k}"))
+                .spawn(move || work(&shared, k))
+                .unwrap_or_else(|e| panic!("cannot start worker thread: {e}"))
+        })
+        .collect()
+}
+
+fn work(shared: &Shared, k: usize) {
+    while let Some(job) = shared.queue.pop(&shared.stopping) {
+        let span = info_span!("job", id = %job.id, worker = k);
+        let _entered = span.enter();
+        match catch_unwind(AssertUnwindSafe(|| run(shared, &job))) {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                error!(error = %e, "job could not be recorded");
+                shared.hub.close(&job.id, Status::Failed);
+            }
+            Err(panic) => {
+                let message = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_owned())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "unknown panic".into());
+                error!(%message, "job panicked");
+                shared.running().remove(&job.id);
+                let error = error_json("internal", &format!("the solver panicked: {message}"));
+                let _ = shared.store.finish(
+                    job.seq,
+                    &Ending {
+                        status: Status::Failed,
+                        error: Some(&error),
+                        stats: None,
+                        finished_at: now(),
+                        run_seconds: 0.0,
+                    },
+                );
+                shared.hub.close(&job.id, Status::Failed);
+            }
+        }
+    }
+}
+
+/// How one attempt at a job ended.
+enum Outcome {
+    Succeeded(String),
+    Failed(JobError, Option<String>),
+    Cancelled(Option<String>),
+    /// Shutdown: back to the queue, to resume from the checkpoint.
+    Interrupted,
+}
+
+fn run(shared: &Shared, job: &Queued) -> anyhow::Result<()> {
+    let Some(row) = shared.store.job(&job.id)? else {
+        return Ok(());
+    };
+    if row.status != Status::Queued {
+        // Cancelled while it waited.
+        return Ok(());
+    }
+    let left = (shared.config.max_wall_seconds - row.run_seconds).max(0.0);
+    let handle = Arc::new(RunHandle::new(
+        Instant::now() + Duration::from_secs_f64(left.min(1e9)),
+    ));
+    shared.running().insert(row.id.clone(), Arc::clone(&handle));
+    shared.store.mark_running(row.seq, now())?;
+    shared.hub.update(&row.id, |l| l.status = Status::Running);
+    info!(attempt = row.attempts + 1, "job started");
+
+    let started = Instant::now();
+    let outcome = simulate(shared, &row, &handle);
+    shared.running().remove(&row.id);
+    let run_seconds = row.run_seconds + started.elapsed().as_secs_f64();
+    let (status, error, stats) = match outcome {
+        Ok(Outcome::Interrupted) => {
+            shared.store.requeue(row.seq, run_seconds)?;
+            shared.hub.update(&row.id, |l| l.status = Status::Queued);
+            info!("job interrupted by shutdown; it resumes at the next start");
+            return Ok(());
+        }
+        Ok(Outcome::Succeeded(stats)) => (Status::Succeeded, None, Some(stats)),
+        Ok(Outcome::Cancelled(stats)) => (Status::Cancelled, None, stats),
+        Ok(Outcome::Failed(e, stats)) => (Status::Failed, Some(e), stats),
+        Err(e) => (
+            Status::Failed,
+            Some(JobError {
+                code: "internal".into(),
+                message: format!("{e:#}"),
+            }),
+            None,
+        ),
+    };
+    let error = error.map(|e| error_json(&e.code, &e.message));
+    shared.store.finish(
+        row.seq,
+        &Ending {
+            status,
+            error: error.as_deref(),
+            stats: stats.as_deref(),
+            finished_at: now(),
+            run_seconds,
+        },
+    )?;
+    shared.hub.close(&row.id, status);
+    info!(status = status.as_str(), run_seconds, "job ended");
+    Ok(())
+}
+
+fn simulate(shared: &Shared, row: &JobRow, handle: &RunHandle) -> anyhow::Result<Outcome> {
+    // Submission checked the spec against the service's limits; the
+    // core's own limits only guard against a corrupted store here.
+    let scene = specfile::load(&row.spec, &Limits::default())
+        .map_err(|e| anyhow::anyhow!("stored spec no longer loads: {e}"))?;
+    let mut sim = Simulation::new(&scene)?;
+    let mut rec = sim.recorder();
+    if let Some((frame, data)) = shared.store.checkpoint(row.seq)?
+        && frame > 0
+    {
+        let checkpoint: Checkpoint = serde_json::from_slice(&data)?;
+        sim.resume(checkpoint)?;
+        for s in shared.store.frame_stats(row.seq, frame)? {
+            rec.record(serde_json::from_str(&s)?, &Default::default());
+        }
+        info!(frame, "resumed from checkpoint");
+    }
+
+    let control = Control {
+        cancel: Some(&handle.cancel),
+        progress: None,
+    };
+    let interval = Duration::from_secs_f64(shared.config.checkpoint_seconds.max(0.0));
+    let mut last_checkpoint = Instant::now();
+    let started = Instant::now();
+    let result = sim.run(&control, &mut rec, |s, stats| {
+        let stopping = shared.is_stopping();
+        let checkpoint = (stopping || last_checkpoint.elapsed() >= interval)
+            .then(|| serde_json::to_vec(&s.checkpoint()))
+            .transpose()
+            .map_err(|e| e.to_string())?;
+        if checkpoint.is_some() {
+            last_checkpoint = Instant::now();
+        }
+        let frame = StoredFrame {
+            n: stats.frame as u64,
+            time: stats.time,
+            positions: encode_positions(&s.state().x),
+            stats: frame_stats_json(s, stats),
+        };
+        shared
+            .store
+            .put_frame(row.seq, &frame, checkpoint.as_deref())
+            .map_err(|e| e.to_string())?;
+        shared.metrics.frames.inc();
+        if stats.steps > 0 {
+            shared
+                .metrics
+                .step_seconds
+                .observe(stats.step_seconds / stats.steps as f64);
+        }
+        shared
+            .hub
+            .update(&row.id, |l| l.frames = l.frames.max(frame.n + 1));
+        if stopping {
+            return Err("interrupted by shutdown".to_owned());
+        }
+        Ok(())
+    });
+    let summary = |rec: &drapery_sim::sim::StatsRecorder| {
+        let mut v =
+            serde_json::to_value(rec.finish(row.run_seconds + started.elapsed().as_secs_f64()))
+                .unwrap_or_default();
+        if let Some(o) = v.as_object_mut() {
+            o.remove("per_frame");
+        }
+        v.to_string()
+    };
+    Ok(match result {
+        Ok(()) => Outcome::Succeeded(summary(&rec)),
+        Err(SimError::Cancelled { .. }) => match handle.reason() {
+            StopReason::WallTime => Outcome::Failed(
+                JobError {
+                    code: "limit_exceeded".into(),
+                    message: format!(
+                        "wall time limit of {} s reached (--max-wall-seconds)",
+                        shared.config.max_wall_seconds
+                    ),
+                },
+                Some(summary(&rec)),
+            ),
+            StopReason::Shutdown => Outcome::Interrupted,
+            _ => Outcome::Cancelled(Some(summary(&rec))),
+        },
+        Err(SimError::Output(_)) if shared.is_stopping() => Outcome::Interrupted,
+        Err(e @ SimError::NonFinite { .. }) => Outcome::Failed(
+            JobError {
+                code: "non_finite".into(),
+                message: e.to_string(),
+            },
+            Some(summary(&rec)),
+        ),
+        Err(e) => {
+            warn!(error = %e, "job failed");
+            Outcome::Failed(
+                JobError {
+                    code: "internal".into(),
+                    message: e.to_string(),
+                },
+                Some(summary(&rec)),
+            )
+        }
+    })
+}
+
+/// f32 xyz per particle, little-endian: the stream's binary frame body.
+pub fn encode_positions(x: &[Vec3]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(x.len() * 12);
+    for p in x {
+        for c in p.iter() {
+            out.extend_from_slice(&(*c as f32).to_le_bytes());
+        }
+    }
+    out
+}
+
+/// A frame's statistics as stored and streamed: [`FrameStats`] plus each
+/// obstacle's pose at the frame (translation, rotation `[x, y, z, w]`) so
+/// a viewer can move the hello's obstacle meshes.
+fn frame_stats_json(sim: &Simulation, stats: &FrameStats) -> String {
+    let mut v = serde_json::to_value(stats).unwrap_or_default();
+    if let Some(stage) = sim.collision() {
+        let poses: Vec<_> = stage
+            .colliders()
+            .iter()
+            .map(|c| {
+                let p = c.trajectory.pose(stats.time);
+                let q = p.rotation.coords;
+                json!({
+                    "translation": [p.translation.x, p.translation.y, p.translation.z],
+                    "rotation": [q.x, q.y, q.z, q.w],
+                })
+            })
+            .collect();
+        v["obstacles"] = json!(poses);
+    }
+    v.to_string()
+}
+
+fn error_json(code: &str, message: &str) -> String {
+    json!({ "code": code, "message": message }).to_string()
+}
+
+/// Sets the stop flag of jobs past their wall-time limit; called
+/// periodically by the server.
+pub fn enforce_deadlines(shared: &Shared) {
+    let now = Instant::now();
+    for h in shared.running().values() {
+        if now >= h.deadline && !h.cancel.load(Ordering::SeqCst) {
+            h.stop(StopReason::WallTime);
+        }
+    }
+}
