@@ -28,6 +28,17 @@ pub enum Command {
     /// Print the service's OpenAPI document, or write it and the job
     /// schema into a directory (`api/`).
     Openapi(OpenapiArgs),
+    /// Probe a running server's `/healthz` (exit 0 when healthy): the
+    /// container's health check, which has no curl.
+    Health(HealthArgs),
+}
+
+/// `drapery health`.
+#[derive(Debug, Args)]
+pub struct HealthArgs {
+    /// The server's address.
+    #[arg(long, env = "DRAPERY_HEALTH_ADDR", default_value = "127.0.0.1:8080")]
+    pub addr: std::net::SocketAddr,
 }
 
 /// `drapery openapi`.

@@ -14,6 +14,7 @@ fn main() -> std::process::ExitCode {
         Command::Validate(args) => commands::validate::run(&args),
         Command::Serve(args) => drapery::service::serve(&args),
         Command::Openapi(args) => commands::openapi::run(&args),
+        Command::Health(args) => commands::health::run(&args),
     };
     match result {
         Ok(code) => code,

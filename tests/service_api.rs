@@ -613,3 +613,46 @@ async fn operations_endpoints_and_served_openapi_match_the_checked_in_file() {
         json!("https://json-schema.org/draft/2020-12/schema")
     );
 }
+
+/// `drapery health` (the container's health check) succeeds against a live
+/// server and fails against a closed port.
+#[tokio::test]
+async fn health_command_probes_the_server() {
+    let s = Server::start(&data_dir("health"), &[]);
+    let addr = s.base.trim_start_matches("http://").to_owned();
+    let probe = |a: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_drapery"))
+            .args(["health", "--addr", a])
+            .output()
+            .expect("runs")
+            .status
+            .success()
+    };
+    assert!(probe(&addr));
+    assert!(!probe("127.0.0.1:9"));
+}
+
+/// A job that runs past `--max-wall-seconds` fails with `limit_exceeded`
+/// naming the flag, keeping the frames it stored.
+#[tokio::test]
+async fn wall_time_limit_fails_the_job() {
+    let s = Server::start(&data_dir("wall"), &["--max-wall-seconds", "0.5"]);
+    let id = submit(&s, &hanging(30, 60.0)).await["id"]
+        .as_str()
+        .expect("id")
+        .to_owned();
+    let j = wait_for(&s, &id, LONG, |j| status(j) == "failed").await;
+    assert_eq!(j["error"]["code"], json!("limit_exceeded"));
+    assert!(
+        j["error"]["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("--max-wall-seconds")),
+        "{j}"
+    );
+    assert!(
+        j["timings"]["run_seconds"]
+            .as_f64()
+            .is_some_and(|t| t < 5.0)
+    );
+    assert!(frames_done(&j) < 1801);
+}
