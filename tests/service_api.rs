@@ -656,3 +656,40 @@ async fn wall_time_limit_fails_the_job() {
     );
     assert!(frames_done(&j) < 1801);
 }
+
+/// With `--cors-origin`, a browser preflight from that origin is allowed
+/// (and the bearer header may be sent); other origins get no allowance.
+#[tokio::test]
+async fn cors_allows_only_configured_origins() {
+    let s = Server::start(
+        &data_dir("cors"),
+        &["--cors-origin", "http://viewer.example"],
+    );
+    let http = client();
+    let preflight = |origin: &'static str| {
+        http.request(reqwest::Method::OPTIONS, s.url("/v1/jobs"))
+            .header("origin", origin)
+            .header("access-control-request-method", "POST")
+            .header(
+                "access-control-request-headers",
+                "authorization,content-type",
+            )
+            .send()
+    };
+    let ok = preflight("http://viewer.example").await.expect("request");
+    assert_eq!(
+        ok.headers()
+            .get("access-control-allow-origin")
+            .and_then(|v| v.to_str().ok()),
+        Some("http://viewer.example")
+    );
+    let allowed = ok
+        .headers()
+        .get("access-control-allow-headers")
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    assert!(allowed.contains("authorization"), "{allowed}");
+    let other = preflight("http://evil.example").await.expect("request");
+    assert!(other.headers().get("access-control-allow-origin").is_none());
+}

@@ -257,15 +257,16 @@ impl Store {
         })
     }
 
-    /// A worker starts the job: running, one more attempt.
-    pub fn mark_running(&self, seq: i64, now: f64) -> Result<()> {
+    /// A worker starts the job: running, one more attempt. `false` if it
+    /// is no longer queued (cancelled between the pop and the start).
+    pub fn mark_running(&self, seq: i64, now: f64) -> Result<bool> {
         self.write(|c| {
-            c.execute(
+            let n = c.execute(
                 "UPDATE jobs SET status = 'running', attempts = attempts + 1,
-                 started_at = COALESCE(started_at, ?2) WHERE seq = ?1",
+                 started_at = COALESCE(started_at, ?2) WHERE seq = ?1 AND status = 'queued'",
                 params![seq, now],
-            )
-            .map(drop)
+            )?;
+            Ok(n == 1)
         })
     }
 
@@ -491,7 +492,11 @@ mod tests {
             ["c", "a"]
         );
         assert_eq!(ids(s.list(None, None, Some(c), 1).expect("list")), ["b"]);
-        s.mark_running(b, 2.0).expect("run");
+        assert!(s.mark_running(b, 2.0).expect("run"));
+        assert!(
+            !s.mark_running(b, 2.0).expect("run"),
+            "only a queued job starts"
+        );
         assert_eq!(
             ids(s.list(None, Some(Status::Running), None, 10).expect("list")),
             ["b"]

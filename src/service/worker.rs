@@ -41,35 +41,39 @@ fn work(shared: &Shared, k: usize) {
     while let Some(job) = shared.queue.pop(&shared.stopping) {
         let span = info_span!("job", id = %job.id, worker = k);
         let _entered = span.enter();
-        match catch_unwind(AssertUnwindSafe(|| run(shared, &job))) {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => {
-                error!(error = %e, "job could not be recorded");
-                shared.hub.close(&job.id, Status::Failed);
-            }
-            Err(panic) => {
-                let message = panic
-                    .downcast_ref::<&str>()
-                    .map(|s| (*s).to_owned())
-                    .or_else(|| panic.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "unknown panic".into());
-                error!(%message, "job panicked");
-                shared.running().remove(&job.id);
-                let error = error_json("internal", &format!("the solver panicked: {message}"));
-                let _ = shared.store.finish(
-                    job.seq,
-                    &Ending {
-                        status: Status::Failed,
-                        error: Some(&error),
-                        stats: None,
-                        finished_at: now(),
-                        run_seconds: 0.0,
-                    },
-                );
-                shared.hub.close(&job.id, Status::Failed);
-            }
-        }
+        guarded(shared, &job, || run(shared, &job));
     }
+}
+
+/// Runs one job; a panic, or an error that kept its end from being
+/// recorded, fails that job alone and leaves the worker running.
+fn guarded(shared: &Shared, job: &Queued, f: impl FnOnce() -> anyhow::Result<()>) {
+    let failure = match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(())) => return,
+        Ok(Err(e)) => format!("the job's end could not be recorded: {e:#}"),
+        Err(panic) => {
+            let message = panic
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_owned())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            format!("the solver panicked: {message}")
+        }
+    };
+    error!(%failure, "job failed");
+    shared.running().remove(&job.id);
+    let error = error_json("internal", &failure);
+    let ending = Ending {
+        status: Status::Failed,
+        error: Some(&error),
+        stats: None,
+        finished_at: now(),
+        run_seconds: 0.0,
+    };
+    if let Err(e) = shared.store.finish(job.seq, &ending) {
+        error!(error = %e, "could not record the failure either");
+    }
+    shared.hub.close(&job.id, Status::Failed);
 }
 
 /// How one attempt at a job ended.
@@ -93,8 +97,14 @@ fn run(shared: &Shared, job: &Queued) -> anyhow::Result<()> {
     let handle = Arc::new(RunHandle::new(
         Instant::now() + Duration::from_secs_f64(left.min(1e9)),
     ));
+    // The handle is in place before the job is marked running, so a
+    // cancel that finds it running also finds its stop flag; a cancel that
+    // won the race leaves it not queued, and it does not start.
     shared.running().insert(row.id.clone(), Arc::clone(&handle));
-    shared.store.mark_running(row.seq, now())?;
+    if !shared.store.mark_running(row.seq, now())? {
+        shared.running().remove(&row.id);
+        return Ok(());
+    }
     shared.hub.update(&row.id, |l| l.status = Status::Running);
     info!(attempt = row.attempts + 1, "job started");
 
@@ -288,5 +298,68 @@ pub fn enforce_deadlines(shared: &Shared) {
         if now >= h.deadline && !h.cancel.load(Ordering::SeqCst) {
             h.stop(StopReason::WallTime);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::auth::Keys;
+    use crate::service::hub::Live;
+    use crate::service::state::Config;
+    use crate::service::store::{NewJob, Store};
+
+    fn shared() -> Shared {
+        let dir = std::env::temp_dir().join(format!("drapery-worker-{}", uuid::Uuid::now_v7()));
+        let config = Config {
+            workers: 1,
+            queue_capacity: 4,
+            limits: Limits::default(),
+            max_wall_seconds: 60.0,
+            max_body_bytes: 1 << 20,
+            keys: Keys::default(),
+            cors_origins: Vec::new(),
+            checkpoint_seconds: 1.0,
+            shutdown_grace: 1.0,
+        };
+        Shared::new(config, Store::open(&dir).expect("store"))
+    }
+
+    /// A job that panics is failed with the panic's message, its stream
+    /// hears `failed`, and the worker (this thread) carries on.
+    #[test]
+    fn a_panicking_job_fails_alone() {
+        let s = shared();
+        let seq = s
+            .store
+            .insert_job(&NewJob {
+                id: "j",
+                owner: "",
+                name: "t",
+                spec: "{}",
+                hello: "{}",
+                frames_total: 2,
+                created_at: now(),
+            })
+            .expect("insert");
+        s.hub.open(
+            "j",
+            Live {
+                frames: 0,
+                status: Status::Running,
+            },
+        );
+        let rx = s.hub.subscribe("j").expect("tracked");
+        let job = Queued {
+            seq,
+            id: "j".into(),
+        };
+        guarded(&s, &job, || panic!("index out of bounds"));
+        let row = s.store.job("j").expect("read").expect("exists");
+        assert_eq!(row.status, Status::Failed);
+        let error = row.error.expect("an error");
+        assert!(error.contains("panicked: index out of bounds"), "{error}");
+        assert_eq!(rx.borrow().status, Status::Failed);
+        guarded(&s, &job, || Ok(()));
     }
 }

@@ -18,22 +18,11 @@ pub struct Server {
     pub data: PathBuf,
 }
 
-/// A fresh data directory under the target's temp dir.
+/// A fresh data directory under the system's temp dir.
 pub fn data_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "drapery-test-{tag}-{}-{}",
-        std::process::id(),
-        Instant::now().elapsed().as_nanos() ^ rand_u64()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
+    let d = std::env::temp_dir().join(format!("drapery-test-{tag}-{}", uuid::Uuid::now_v7()));
     std::fs::create_dir_all(&d).expect("temp dir");
     d
-}
-
-fn rand_u64() -> u128 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos())
 }
 
 impl Server {
