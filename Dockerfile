@@ -12,6 +12,8 @@ COPY sim sim
 COPY src src
 COPY benches benches
 COPY api api
+COPY viewer viewer
+COPY examples examples
 ENV CARGO_PROFILE_RELEASE_DEBUG=0 \
     CARGO_PROFILE_RELEASE_STRIP=true
 RUN cargo build --release --locked --bin drapery

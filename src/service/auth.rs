@@ -97,12 +97,16 @@ pub async fn require_key(
         req.extensions_mut().insert(Owner(None));
         return next.run(req).await;
     }
-    let token = req
+    // A browser cannot set headers on a WebSocket or a download link, so
+    // the key may also come as `?access_token=` (RFC 6750 §2.3).
+    let header_token = req
         .headers()
         .get(header::AUTHORIZATION)
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.strip_prefix("Bearer "))
-        .map(str::trim);
+        .map(|t| t.trim().to_owned());
+    let token = header_token.or_else(|| query_token(req.uri().query().unwrap_or("")));
+    let token = token.as_deref();
     match token.and_then(|t| keys.owner_of(t)) {
         Some(owner) => {
             req.extensions_mut().insert(Owner(Some(owner.to_owned())));
@@ -121,6 +125,26 @@ pub async fn require_key(
             r
         }
     }
+}
+
+/// The `access_token` query parameter, percent-decoded.
+fn query_token(query: &str) -> Option<String> {
+    query.split('&').find_map(|pair| {
+        let v = pair.strip_prefix("access_token=")?;
+        let mut out = Vec::with_capacity(v.len());
+        let mut bytes = v.bytes();
+        while let Some(b) = bytes.next() {
+            match b {
+                b'%' => {
+                    let hex = [bytes.next()?, bytes.next()?];
+                    out.push(u8::from_str_radix(std::str::from_utf8(&hex).ok()?, 16).ok()?);
+                }
+                b'+' => out.push(b' '),
+                b => out.push(b),
+            }
+        }
+        String::from_utf8(out).ok()
+    })
 }
 
 fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
@@ -153,6 +177,16 @@ mod tests {
         assert_eq!(keys.owner_of(""), None);
         assert!(Keys::parse(&["bob:short".into()]).is_err());
         assert!(!Keys::parse(&[]).expect("empty is fine").enabled());
+    }
+
+    #[test]
+    fn query_token_is_percent_decoded() {
+        assert_eq!(
+            query_token("from=3&access_token=a%3Ab+c"),
+            Some("a:b c".into())
+        );
+        assert_eq!(query_token("from=3"), None);
+        assert_eq!(query_token("access_token=%zz"), None);
     }
 
     #[test]

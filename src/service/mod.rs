@@ -23,6 +23,7 @@ mod results;
 mod state;
 mod store;
 mod stream;
+mod viewer;
 mod worker;
 
 use std::sync::Arc;
@@ -100,6 +101,10 @@ fn router(shared: &Arc<Shared>) -> Router {
         .route("/metrics", get(ops::metrics))
         .route("/openapi.json", get(ops::openapi_json))
         .route("/job.schema.json", get(ops::job_schema))
+        .route("/", get(viewer::index))
+        .route("/assets/{file}", get(viewer::asset))
+        .route("/examples", get(viewer::examples))
+        .route("/examples/{name}", get(viewer::example))
         .layer(DefaultBodyLimit::max(shared.config.max_body_bytes))
         .layer(
             TraceLayer::new_for_http().make_span_with(|req: &axum::http::Request<_>| {
@@ -178,6 +183,7 @@ pub fn serve(args: &ServeArgs) -> anyhow::Result<std::process::ExitCode> {
             data = %args.data.display(),
             recovered,
             auth = shared.config.keys.enabled(),
+            viewer_bytes = viewer::load_size(),
             "listening"
         );
         // Tests and scripts read the address from the first stdout line.

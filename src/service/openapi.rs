@@ -41,7 +41,7 @@ impl Modify for Security {
                     HttpBuilder::new()
                         .scheme(HttpAuthScheme::Bearer)
                         .description(Some(
-                            "Required when the server has API keys (--api-key); a key sees only its own jobs.",
+                            "Required when the server has API keys (--api-key); a key sees only its own jobs. Where a client cannot set headers (browser WebSocket, download links), `?access_token=KEY` is accepted instead.",
                         ))
                         .build(),
                 ),

@@ -265,7 +265,8 @@ pub fn encode_positions(x: &[Vec3]) -> Vec<u8> {
 
 /// A frame's statistics as stored and streamed: [`FrameStats`] plus each
 /// obstacle's pose at the frame (translation, rotation `[x, y, z, w]`) so
-/// a viewer can move the hello's obstacle meshes.
+/// a viewer can move the hello's obstacle meshes, and the particles in
+/// contact (`contact_particles`) so it can highlight them.
 fn frame_stats_json(sim: &Simulation, stats: &FrameStats) -> String {
     let mut v = serde_json::to_value(stats).unwrap_or_default();
     if let Some(stage) = sim.collision() {
@@ -282,6 +283,8 @@ fn frame_stats_json(sim: &Simulation, stats: &FrameStats) -> String {
             })
             .collect();
         v["obstacles"] = json!(poses);
+        let touching: Vec<u32> = stage.contacts().iter().map(|c| c.particle).collect();
+        v["contact_particles"] = json!(touching);
     }
     v.to_string()
 }
