@@ -396,6 +396,23 @@ async fn api_keys_gate_and_separate_owners() {
         .await
         .expect("request");
     assert_eq!(r.status(), 200);
+    // Browsers cannot set headers on a WebSocket: the key may ride in the
+    // query, with the same ownership rules.
+    let r = http
+        .get(s.url(&format!("/v1/jobs/{id}?access_token=alice-secret-1")))
+        .send()
+        .await
+        .expect("request");
+    assert_eq!(r.status(), 200);
+    let r = http
+        .get(s.url(&format!("/v1/jobs/{id}?access_token=bob-secret-22")))
+        .send()
+        .await
+        .expect("request");
+    assert_eq!(r.status(), 404);
+    let got =
+        read_stream(&s.ws_url(&format!("/v1/jobs/{id}/stream?access_token=alice-secret-1"))).await;
+    assert_eq!(got.hello["job"], json!(id));
     assert_eq!(
         http.get(s.url("/healthz"))
             .send()
