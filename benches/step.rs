@@ -18,7 +18,7 @@ fn step(c: &mut Criterion) {
                 "hanging-corners",
                 n,
                 |spec| {
-                    spec.cloth.pinned = vec![[0, 0], [n - 1, 0]];
+                    spec.cloth.pinned = vec![[0, 0].into(), [n - 1, 0].into()];
                     spec.solver.preconditioner = p;
                 },
                 h,

@@ -76,7 +76,7 @@ fn hanging_corners_lowest_point_converges_under_refinement() {
         .map(|&n| {
             let mut spec = base.clone();
             spec.cloth.grid = [n, n];
-            spec.cloth.pinned = vec![[0, 0], [n - 1, 0]];
+            spec.cloth.pinned = vec![[0, 0].into(), [n - 1, 0].into()];
             spec.duration = 1.0;
             spec.fps = 10.0;
             let scene = spec.validate(&Default::default()).expect("valid");

@@ -13,7 +13,7 @@ use drapery_sim::spec::{MaterialParams, MaterialSpec, TimeStep};
 fn run(dt: f64, ratio: f64, duration: f64) -> f64 {
     let mut spec = common::shared_spec("hanging-corners.json");
     spec.cloth.grid = [20, 20];
-    spec.cloth.pinned = vec![[0, 0], [19, 0]];
+    spec.cloth.pinned = vec![[0, 0].into(), [19, 0].into()];
     let stretch = 2.0e4;
     spec.material = MaterialSpec::Params(MaterialParams {
         density: 0.15,

@@ -7,7 +7,7 @@ use super::control::{Control, Progress};
 use super::error::SimError;
 use super::stats::{FrameStats, StatsRecorder};
 use crate::cloth::{ForceModel, Grid};
-use crate::collision::{CollisionCounters, CollisionStage, Contact};
+use crate::collision::{CollisionCounters, CollisionStage, Contact, Trajectory};
 use crate::math::{Real, Vec3};
 use crate::solver::{
     ClothState, Constraints, Integrator, MpcgOptions, Physics, SolveStatus, StageTimes, StepReport,
@@ -50,8 +50,11 @@ pub struct Simulation {
     collision: Option<CollisionStage>,
     pinned: Vec<bool>,
     /// Where pinned particles are held: their positions when the run
-    /// started (or when the state was last replaced).
+    /// started (or when the state was last replaced), in the frame of the
+    /// motion they follow.
     anchors: Vec<Vec3>,
+    /// Motions of moving pin groups (`scene.cloth.pin_motions`).
+    pin_trajectories: Vec<Trajectory>,
     frame: usize,
     steps: usize,
     /// Adaptive stepping: current subdivision level and run of easy steps.
@@ -82,6 +85,12 @@ impl Simulation {
             v: vec![Vec3::zeros(); n],
         };
         let anchors = scene.cloth.pinned.iter().map(|&i| grid.rest[i]).collect();
+        let pin_trajectories = scene
+            .cloth
+            .pin_motions
+            .iter()
+            .map(|m| Trajectory::new(Some(m)))
+            .collect();
         let mut pinned = vec![false; n];
         for &i in &scene.cloth.pinned {
             pinned[i] = true;
@@ -116,6 +125,7 @@ impl Simulation {
             collision,
             pinned,
             anchors,
+            pin_trajectories,
             frame: 0,
             steps: 0,
             level,
@@ -152,12 +162,20 @@ impl Simulation {
             self.grid.len(),
             "state has the wrong particle count"
         );
-        self.anchors = self
-            .scene
-            .cloth
+        let cloth = &self.scene.cloth;
+        self.anchors = cloth
             .pinned
             .iter()
-            .map(|&i| state.x[i])
+            .zip(&cloth.pin_group)
+            .map(|(&i, group)| match group {
+                None => state.x[i],
+                Some(g) => {
+                    self.pin_trajectories[*g]
+                        .pose(state.time)
+                        .inverse_transform_point(&state.x[i].into())
+                        .coords
+                }
+            })
             .collect();
         self.state = state;
         self.integrator.reset_warm_start();
@@ -219,13 +237,26 @@ impl Simulation {
         }
     }
 
-    /// Fills the constraints of this step: pins hold their rest position.
-    fn constrain(&mut self) {
+    /// Fills the constraints of a step from `time` to `time + h`: a fixed
+    /// pin holds its anchor (`dv = -v`, `y` the drift back); a moving pin
+    /// ends the step exactly where its motion puts the anchor, at the
+    /// motion's mean velocity over the step (`z` and `y` of eq. [20]).
+    fn constrain(&mut self, time: Real, h: Real) {
         self.constraints.clear();
-        for (&i, anchor) in self.scene.cloth.pinned.iter().zip(&self.anchors) {
-            let dv = -self.state.v[i];
-            let y = anchor - self.state.x[i];
-            self.constraints.fix(i, dv, y);
+        let cloth = &self.scene.cloth;
+        for ((&i, anchor), group) in cloth.pinned.iter().zip(&self.anchors).zip(&cloth.pin_group) {
+            let (x, v) = (self.state.x[i], self.state.v[i]);
+            match group {
+                None => self.constraints.fix(i, -v, anchor - x),
+                Some(g) => {
+                    let motion = &self.pin_trajectories[*g];
+                    let p0 = motion.pose(time) * nalgebra::Point3::from(*anchor);
+                    let p1 = motion.pose(time + h) * nalgebra::Point3::from(*anchor);
+                    let target = (p1 - p0) / h;
+                    self.constraints
+                        .fix(i, target - v, p1.coords - (x + h * target));
+                }
+            }
         }
     }
 
@@ -243,7 +274,7 @@ impl Simulation {
         let mut collision_seconds = 0.0;
         let mut redos = 0;
         loop {
-            self.constrain();
+            self.constrain(time, h);
             if let Some(stage) = &mut self.collision {
                 let t = Instant::now();
                 stage.prepare(

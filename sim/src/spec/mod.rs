@@ -20,4 +20,7 @@ pub use limits::Limits;
 pub use material::{MaterialParams, MaterialSpec, PRESETS, preset};
 pub use obstacle::{BoxShape, Cylinder, Keyframe, MeshSource, Motion, Obstacle, Plane, Sphere};
 pub use scene::{ClothScene, Scene, SolverScene, TimeStepping};
-pub use types::{ClothSpec, JacobianMode, Pin, PreconditionerKind, SolverSpec, Spec, TimeStep};
+pub use types::{
+    ClothSpec, JacobianMode, Pin, PinEntry, PinGroup, PreconditionerKind, SolverSpec, Spec,
+    TimeStep,
+};

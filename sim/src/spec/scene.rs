@@ -52,6 +52,11 @@ pub struct ClothScene {
     pub v: Vec3,
     /// Pinned particle indices (`i + j * nu`), sorted, without repeats.
     pub pinned: Vec<usize>,
+    /// For each of `pinned`, the index in `pin_motions` of the motion it
+    /// follows; `None`: held where it starts.
+    pub pin_group: Vec<Option<usize>>,
+    /// The motions of moving pin groups.
+    pub pin_motions: Vec<super::Motion>,
 }
 
 /// Solver settings with defaults applied.

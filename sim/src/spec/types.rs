@@ -42,6 +42,99 @@ fn default_gravity() -> [f64; 3] {
 /// A grid particle `[i, j]` held in place.
 pub type Pin = [u32; 2];
 
+/// One entry of `cloth.pinned`: a particle `[i, j]` held where it starts,
+/// or a group of particles that follow a rigid motion together (a hand
+/// pulling a table cloth, a moving hanger), with `motion` exactly as an
+/// obstacle's: the group moves as if glued to a rigid body.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum PinEntry {
+    /// Held in place.
+    Particle(Pin),
+    /// Held to a moving frame.
+    Group(PinGroup),
+}
+
+impl From<Pin> for PinEntry {
+    fn from(p: Pin) -> Self {
+        PinEntry::Particle(p)
+    }
+}
+
+/// Particles pinned to one rigid motion.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
+#[serde(deny_unknown_fields)]
+pub struct PinGroup {
+    /// The particles, `[i, j]` each.
+    #[cfg_attr(feature = "schema", schema(value_type = Vec<[u32; 2]>))]
+    pub particles: Vec<Pin>,
+    /// Their motion from where they start; none: held in place.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<super::obstacle::Motion>,
+}
+
+/// An array is a particle, an object a group: dispatching on the JSON type
+/// keeps serde's own error messages (and paths) for each form, which an
+/// untagged enum would replace with "did not match any variant".
+impl<'de> Deserialize<'de> for PinEntry {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = PinEntry;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(
+                    "a particle [i, j] or a group {\"particles\": [[i, j], ...], \"motion\": ...}",
+                )
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<PinEntry, A::Error> {
+                Pin::deserialize(serde::de::value::SeqAccessDeserializer::new(seq))
+                    .map(PinEntry::Particle)
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<PinEntry, A::Error> {
+                PinGroup::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(PinEntry::Group)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[cfg(feature = "schema")]
+impl utoipa::PartialSchema for PinEntry {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::schema::{ArrayBuilder, ObjectBuilder, OneOfBuilder, Type};
+        OneOfBuilder::new()
+            .item(
+                ArrayBuilder::new()
+                    .items(
+                        ObjectBuilder::new()
+                            .schema_type(Type::Integer)
+                            .minimum(Some(0)),
+                    )
+                    .min_items(Some(2))
+                    .max_items(Some(2))
+                    .description(Some("A particle [i, j] held where it starts")),
+            )
+            .item(utoipa::openapi::Ref::from_schema_name("PinGroup"))
+            .into()
+    }
+}
+
+#[cfg(feature = "schema")]
+impl utoipa::ToSchema for PinEntry {
+    fn schemas(
+        schemas: &mut Vec<(
+            String,
+            utoipa::openapi::RefOr<utoipa::openapi::schema::Schema>,
+        )>,
+    ) {
+        use utoipa::PartialSchema;
+        schemas.push(("PinGroup".into(), PinGroup::schema()));
+        <PinGroup as utoipa::ToSchema>::schemas(schemas);
+    }
+}
+
 /// The cloth as a rectangular grid of particles at thread crossings (§1).
 #[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -60,10 +153,9 @@ pub struct ClothSpec {
     /// Weft direction; default `[0, 1, 0]`.
     #[serde(default)]
     pub v: Option<[f64; 3]>,
-    /// Particles held in place.
+    /// Particles held in place (`[i, j]`) or moving with a group.
     #[serde(default)]
-    #[cfg_attr(feature = "schema", schema(value_type = Vec<[u32; 2]>))]
-    pub pinned: Vec<Pin>,
+    pub pinned: Vec<PinEntry>,
 }
 
 /// Solver settings; every field has a default.

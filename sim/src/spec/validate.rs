@@ -5,7 +5,7 @@ use super::limits::Limits;
 use super::material::{MaterialParams, MaterialSpec, PRESETS, preset};
 use super::obstacle::{Motion, Obstacle};
 use super::scene::{ClothScene, Scene, SolverScene, TimeStepping};
-use super::types::{Spec, TimeStep};
+use super::types::{PinEntry, Spec, TimeStep};
 use crate::math::Vec3;
 
 /// Largest coordinate magnitude accepted anywhere, in metres.
@@ -166,21 +166,62 @@ fn validate_cloth(spec: &Spec, limits: &Limits, c: &mut Check) -> Option<ClothSc
         ok = false;
     }
     let (nu, nv) = (cl.grid[0] as usize, cl.grid[1] as usize);
-    let mut pinned = Vec::with_capacity(cl.pinned.len());
-    for (k, p) in cl.pinned.iter().enumerate() {
+    // (particle, motion group, entry index), then sorted by particle.
+    let mut pins: Vec<(usize, Option<usize>, usize)> = Vec::with_capacity(cl.pinned.len());
+    let mut pin_motions = Vec::new();
+    let mut pin = |at: String, p: &[u32; 2], group: Option<usize>, k: usize, c: &mut Check| {
+        let mut inside = true;
         for (axis, n) in [(0, nu), (1, nv)] {
             if p[axis] as usize >= n {
                 c.fail(
-                    format!("cloth.pinned[{k}][{axis}]"),
+                    format!("{at}[{axis}]"),
                     format!("must be < {n} (cloth.grid[{axis}])"),
                 );
-                ok = false;
+                inside = false;
             }
         }
-        pinned.push(p[0] as usize + p[1] as usize * nu);
+        if inside {
+            pins.push((p[0] as usize + p[1] as usize * nu, group, k));
+        }
+        inside
+    };
+    for (k, entry) in cl.pinned.iter().enumerate() {
+        match entry {
+            PinEntry::Particle(p) => ok &= pin(format!("cloth.pinned[{k}]"), p, None, k, c),
+            PinEntry::Group(g) => {
+                if g.particles.is_empty() {
+                    c.fail(format!("cloth.pinned[{k}].particles"), "must not be empty");
+                    ok = false;
+                }
+                let group = g.motion.as_ref().map(|m| {
+                    validate_motion(&format!("cloth.pinned[{k}].motion"), m, c);
+                    pin_motions.push(m.clone());
+                    pin_motions.len() - 1
+                });
+                for (m, p) in g.particles.iter().enumerate() {
+                    ok &= pin(format!("cloth.pinned[{k}].particles[{m}]"), p, group, k, c);
+                }
+            }
+        }
     }
-    pinned.sort_unstable();
-    pinned.dedup();
+    pins.sort_unstable();
+    pins.dedup_by_key(|p| (p.0, p.1));
+    for w in pins.windows(2) {
+        if w[0].0 == w[1].0 {
+            c.fail(
+                format!("cloth.pinned[{}]", w[1].2),
+                format!(
+                    "particle [{}, {}] is also pinned by cloth.pinned[{}] with another motion",
+                    w[1].0 % nu,
+                    w[1].0 / nu,
+                    w[0].2
+                ),
+            );
+            ok = false;
+        }
+    }
+    let pinned = pins.iter().map(|p| p.0).collect();
+    let pin_group = pins.iter().map(|p| p.1).collect();
     let (origin, u, v) = (origin?, u?, v?);
     ok.then_some(ClothScene {
         nu,
@@ -190,6 +231,8 @@ fn validate_cloth(spec: &Spec, limits: &Limits, c: &mut Check) -> Option<ClothSc
         u,
         v,
         pinned,
+        pin_group,
+        pin_motions,
     })
 }
 
