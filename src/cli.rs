@@ -28,6 +28,9 @@ pub enum Command {
     /// Print the service's OpenAPI document, or write it and the job
     /// schema into a directory (`api/`).
     Openapi(OpenapiArgs),
+    /// Benchmark studies (issue: run time against error, stress, scaling).
+    #[command(subcommand)]
+    Bench(BenchCommand),
     /// Probe a running server's `/healthz` (exit 0 when healthy): the
     /// container's health check, which has no curl.
     Health(HealthArgs),
@@ -137,4 +140,29 @@ pub struct ServeArgs {
     /// checkpoint before the server exits anyway, seconds.
     #[arg(long, env = "DRAPERY_SHUTDOWN_GRACE", default_value_t = 20.0)]
     pub shutdown_grace: f64,
+}
+
+/// `drapery bench ...`.
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// Cost against cloth size: a sphere drape at growing grids, with the
+    /// fitted growth exponent of time per step.
+    Scale(ScaleArgs),
+}
+
+/// `drapery bench scale`.
+#[derive(Debug, Args)]
+pub struct ScaleArgs {
+    /// Output directory for `scale.csv` and `scale.svg`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Grid sizes `n` (the cloth is `n` x `n`), ascending.
+    #[arg(long, value_delimiter = ',', default_value = "30,60,100,200,300")]
+    pub sizes: Vec<u32>,
+    /// Simulated seconds per size (the drape meets the sphere at ~0.2 s).
+    #[arg(long, default_value_t = 0.5)]
+    pub duration: f64,
+    /// Scene to scale (its grid is replaced); default: the sphere drape.
+    #[arg(long)]
+    pub spec: Option<PathBuf>,
 }

@@ -15,6 +15,7 @@ fn main() -> std::process::ExitCode {
         Command::Serve(args) => drapery::service::serve(&args),
         Command::Openapi(args) => commands::openapi::run(&args),
         Command::Health(args) => commands::health::run(&args),
+        Command::Bench(cmd) => commands::bench::run(&cmd),
     };
     match result {
         Ok(code) => code,

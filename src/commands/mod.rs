@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod bench;
 pub mod health;
 pub mod openapi;
 pub mod run;

@@ -1,0 +1,26 @@
+//! `drapery bench`: benchmark studies that write CSV and an SVG plot.
+//! Speed is measured here and in criterion, never in timed unit tests.
+
+mod fit;
+mod plot;
+mod scale;
+
+use std::process::ExitCode;
+
+use crate::cli::BenchCommand;
+
+/// Runs one study.
+pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitCode> {
+    match cmd {
+        BenchCommand::Scale(args) => scale::run(args),
+    }
+}
+
+/// Peak resident memory of this process so far (`VmHWM`), MiB; `None`
+/// where `/proc` does not say.
+fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}

@@ -1,0 +1,84 @@
+//! Log-log SVG plots for the studies, drawn with `plotters`.
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+/// One curve: a name, its points, and whether to join them.
+#[derive(Debug)]
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub line: bool,
+}
+
+const COLOURS: [RGBColor; 4] = [
+    RGBColor(59, 125, 216),
+    RGBColor(240, 140, 46),
+    RGBColor(22, 121, 76),
+    RGBColor(163, 21, 27),
+];
+
+/// Draws `series` on log-log axes into `path`.
+pub fn loglog(
+    path: &Path,
+    title: &str,
+    axes: (&str, &str),
+    series: &[Series],
+) -> anyhow::Result<()> {
+    let all: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.points.iter().copied())
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite())
+        .collect();
+    anyhow::ensure!(!all.is_empty(), "nothing to plot");
+    let span = |v: Vec<f64>| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (lo / 1.5)..(hi * 1.5)
+    };
+    let xs = span(all.iter().map(|p| p.0).collect());
+    let ys = span(all.iter().map(|p| p.1).collect());
+    let root = SVGBackend::new(path, (820, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(72)
+        .build_cartesian_2d(xs.log_scale(), ys.log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc(axes.0)
+        .y_desc(axes.1)
+        .draw()?;
+    for (k, s) in series.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        let pts: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .copied()
+            .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+            .collect();
+        if s.line {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
+                .label(s.name.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
+        } else {
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?
+                .label(s.name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, colour.filled()));
+        }
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.85))
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
