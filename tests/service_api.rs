@@ -75,14 +75,7 @@ async fn live_stream_delivers_every_frame_in_order() {
         parse_frame(&bin.bytes().await.expect("body")),
         got.frames[7]
     );
-    let js: Value = http
-        .get(s.url(&format!("/v1/jobs/{id}/frames/7")))
-        .send()
-        .await
-        .expect("request")
-        .json()
-        .await
-        .expect("JSON");
+    let js = get_json(&s, &format!("/v1/jobs/{id}/frames/7")).await;
     assert_eq!(js["frame"], json!(7));
     let v: Vec<[f32; 3]> = serde_json::from_value(js["vertices"].clone()).expect("vertices");
     assert_eq!(v, got.frames[7].positions);
@@ -452,37 +445,16 @@ async fn full_queue_refuses_with_retry_after_and_list_pages() {
     assert!(r.headers().get("retry-after").is_some());
     assert_eq!(error_code(r).await, "queue_full");
 
-    let page: Value = http
-        .get(s.url("/v1/jobs?limit=1"))
-        .send()
-        .await
-        .expect("request")
-        .json()
-        .await
-        .expect("JSON");
+    let page = get_json(&s, "/v1/jobs?limit=1").await;
     assert_eq!(page["jobs"][0]["id"], json!(b), "newest first");
     let cursor = page["next_cursor"]
         .as_str()
         .expect("a next page")
         .to_owned();
-    let page2: Value = http
-        .get(s.url(&format!("/v1/jobs?limit=1&cursor={cursor}")))
-        .send()
-        .await
-        .expect("request")
-        .json()
-        .await
-        .expect("JSON");
+    let page2 = get_json(&s, &format!("/v1/jobs?limit=1&cursor={cursor}")).await;
     assert_eq!(page2["jobs"][0]["id"], json!(a));
     assert_eq!(page2["next_cursor"], Value::Null);
-    let running: Value = http
-        .get(s.url("/v1/jobs?status=running"))
-        .send()
-        .await
-        .expect("request")
-        .json()
-        .await
-        .expect("JSON");
+    let running = get_json(&s, "/v1/jobs?status=running").await;
     assert_eq!(running["jobs"].as_array().map(Vec::len), Some(1));
 
     // Cancelling the queued job frees its place at once.
@@ -592,14 +564,7 @@ async fn operations_endpoints_and_served_openapi_match_the_checked_in_file() {
             .status(),
         200
     );
-    let ready: Value = http
-        .get(s.url("/readyz"))
-        .send()
-        .await
-        .expect("request")
-        .json()
-        .await
-        .expect("JSON");
+    let ready = get_json(&s, "/readyz").await;
     assert_eq!(ready["status"], json!("ready"));
     let served: utoipa::openapi::OpenApi = http
         .get(s.url("/openapi.json"))
@@ -617,14 +582,7 @@ async fn operations_endpoints_and_served_openapi_match_the_checked_in_file() {
         served.to_yaml().expect("YAML") == checked_in,
         "the served document differs from api/openapi.yaml: run `cargo run -- openapi --write api`"
     );
-    let schema: Value = http
-        .get(s.url("/job.schema.json"))
-        .send()
-        .await
-        .expect("request")
-        .json()
-        .await
-        .expect("JSON");
+    let schema = get_json(&s, "/job.schema.json").await;
     assert_eq!(
         schema["$schema"],
         json!("https://json-schema.org/draft/2020-12/schema")

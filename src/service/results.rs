@@ -6,10 +6,8 @@ use std::io::{Cursor, Write};
 use drapery_sim::cloth::Grid;
 use drapery_sim::export::{Pc2Writer, write_glb, write_obj};
 use drapery_sim::math::Vec3;
-use drapery_sim::spec::Limits;
 
 use super::store::{JobRow, Store};
-use crate::specfile;
 
 /// Download formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,8 +69,7 @@ fn to_vec3(points: &[[f32; 3]]) -> Vec<Vec3> {
 
 /// The job's stored frames in `format`.
 pub fn build(store: &Store, row: &JobRow, format: Format) -> anyhow::Result<Vec<u8>> {
-    let scene = specfile::load(&row.spec, &Limits::default())
-        .map_err(|e| anyhow::anyhow!("stored spec no longer loads: {e}"))?;
+    let scene = row.scene()?;
     let grid = Grid::new(&scene.cloth, scene.material.density);
     let triangles = grid.triangles();
     match format {

@@ -93,6 +93,16 @@ pub struct JobRow {
     pub stats: Option<String>,
 }
 
+impl JobRow {
+    /// The job's scene, from its stored spec. Submission checked the spec
+    /// against the service's limits; the core's own limits only guard
+    /// against a corrupted store here.
+    pub fn scene(&self) -> anyhow::Result<drapery_sim::spec::Scene> {
+        crate::specfile::load(&self.spec, &drapery_sim::spec::Limits::default())
+            .map_err(|e| anyhow::anyhow!("stored spec no longer loads: {e}"))
+    }
+}
+
 /// What a submission stores.
 #[derive(Debug)]
 pub struct NewJob<'a> {

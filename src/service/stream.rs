@@ -119,8 +119,14 @@ async fn serve(
             let id = id.clone();
             let row = tokio::task::spawn_blocking(move || s.store.job(&id)).await??;
             let job = row.as_ref().map(Job::from_row);
+            // The protocol names success `done`; the other ends keep the
+            // status's name.
+            let kind = match status {
+                Status::Succeeded => "done",
+                other => other.as_str(),
+            };
             let end = json!({
-                "type": status.as_str().replace("succeeded", "done"),
+                "type": kind,
                 "status": status,
                 "frames": frames,
                 "error": job.as_ref().and_then(|j| j.error.clone()),

@@ -14,7 +14,6 @@ use std::time::{Duration, Instant};
 
 use drapery_sim::math::Vec3;
 use drapery_sim::sim::{Checkpoint, Control, FrameStats, SimError, Simulation};
-use drapery_sim::spec::Limits;
 use serde_json::json;
 use tracing::{error, info, info_span, warn};
 
@@ -22,7 +21,6 @@ use super::job::{JobError, Status, now};
 use super::queue::Queued;
 use super::state::{RunHandle, Shared, StopReason};
 use super::store::{Ending, JobRow, StoredFrame};
-use crate::specfile;
 
 /// Starts `n` workers.
 pub fn spawn(shared: &Arc<Shared>, n: usize) -> Vec<std::thread::JoinHandle<()>> {
@@ -148,10 +146,7 @@ fn run(shared: &Shared, job: &Queued) -> anyhow::Result<()> {
 }
 
 fn simulate(shared: &Shared, row: &JobRow, handle: &RunHandle) -> anyhow::Result<Outcome> {
-    // Submission checked the spec against the service's limits; the
-    // core's own limits only guard against a corrupted store here.
-    let scene = specfile::load(&row.spec, &Limits::default())
-        .map_err(|e| anyhow::anyhow!("stored spec no longer loads: {e}"))?;
+    let scene = row.scene()?;
     let mut sim = Simulation::new(&scene)?;
     let mut rec = sim.recorder();
     if let Some((frame, data)) = shared.store.checkpoint(row.seq)?
@@ -311,6 +306,7 @@ mod tests {
     use crate::service::hub::Live;
     use crate::service::state::Config;
     use crate::service::store::{NewJob, Store};
+    use drapery_sim::spec::Limits;
 
     fn shared() -> Shared {
         let dir = std::env::temp_dir().join(format!("drapery-worker-{}", uuid::Uuid::now_v7()));

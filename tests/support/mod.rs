@@ -141,15 +141,20 @@ pub async fn submit(s: &Server, spec: &Value) -> Value {
     r.json().await.expect("job JSON")
 }
 
-pub async fn job(s: &Server, id: &str) -> Value {
+/// `GET path` without a key, as JSON.
+pub async fn get_json(s: &Server, path: &str) -> Value {
     client()
-        .get(s.url(&format!("/v1/jobs/{id}")))
+        .get(s.url(path))
         .send()
         .await
         .expect("request")
         .json()
         .await
-        .expect("job JSON")
+        .expect("a JSON body")
+}
+
+pub async fn job(s: &Server, id: &str) -> Value {
+    get_json(s, &format!("/v1/jobs/{id}")).await
 }
 
 /// Polls the job until `pred` holds (panics after `limit`).
