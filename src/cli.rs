@@ -145,6 +145,14 @@ pub struct ServeArgs {
 /// `drapery bench ...`.
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
+    /// Work against precision: error against a reference solution for a
+    /// sweep of time steps and a sweep of CG tolerances, with the Pareto
+    /// front and the observed order of accuracy.
+    Precision(PrecisionArgs),
+    /// The stability stress suite: cases built to break the solver, each
+    /// checked for finite numbers, bounded stretch, no penetration and
+    /// bounded CG iterations; exits 1 if any fails.
+    Stress(StressArgs),
     /// Cost against cloth size: a sphere drape at growing grids, with the
     /// fitted growth exponent of time per step.
     Scale(ScaleArgs),
@@ -165,4 +173,92 @@ pub struct ScaleArgs {
     /// Scene to scale (its grid is replaced); default: the sphere drape.
     #[arg(long)]
     pub spec: Option<PathBuf>,
+}
+
+/// `drapery bench precision`.
+#[derive(Debug, Args)]
+pub struct PrecisionArgs {
+    /// The scene (JSON); its `solver.dt` and `solver.tolerance` are swept.
+    pub spec: PathBuf,
+    /// Output directory for `precision.csv`, `precision.svg` and the
+    /// reference (`reference.bin`).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Reuse the reference written by an earlier study of the same scene
+    /// (its `reference.bin`) instead of computing it.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Runs per point; the median wall time is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Largest step of the time-step sweep, seconds (`1/30` or `0.0333`).
+    #[arg(long, default_value = "1/30", value_parser = parse_seconds)]
+    pub dt_max: f64,
+    /// Halvings of the step after `--dt-max` (6: 1/30 ... 1/1920).
+    #[arg(long, default_value_t = 6)]
+    pub halvings: u32,
+    /// Step of the reference; default: the smallest swept step / 8.
+    #[arg(long, value_parser = parse_seconds)]
+    pub reference_dt: Option<f64>,
+    /// CG tolerance of the reference and of the time-step sweep.
+    #[arg(long, default_value_t = 1e-10)]
+    pub tight_tolerance: f64,
+    /// CG tolerances of the tolerance sweep.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1e-2,1e-3,1e-4,1e-5,1e-6,1e-7,1e-8"
+    )]
+    pub tolerances: Vec<f64>,
+    /// Step of the tolerance sweep; default: the scene's `solver.dt`.
+    #[arg(long, value_parser = parse_seconds)]
+    pub tolerance_dt: Option<f64>,
+    /// Simulated seconds; default: the scene's `duration`.
+    #[arg(long)]
+    pub duration: Option<f64>,
+}
+
+/// `drapery bench stress`.
+#[derive(Debug, Args)]
+pub struct StressArgs {
+    /// Output directory for `stress.csv`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Cloth resolution of the cases (`n` x `n` particles).
+    #[arg(long, default_value_t = 30)]
+    pub size: u32,
+    /// Run only the cases whose name contains one of these.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+}
+
+/// A duration in seconds, as a decimal (`0.004`) or a fraction (`1/240`).
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    let v = match s.split_once('/') {
+        Some((a, b)) => {
+            let a: f64 = a.trim().parse().map_err(|e| format!("{a}: {e}"))?;
+            let b: f64 = b.trim().parse().map_err(|e| format!("{b}: {e}"))?;
+            a / b
+        }
+        None => s.trim().parse().map_err(|e| format!("{s}: {e}"))?,
+    };
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{s}: must be a positive number of seconds"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_seconds;
+
+    #[test]
+    fn seconds_parse_as_decimals_or_fractions() {
+        assert_eq!(parse_seconds("1/240"), Ok(1.0 / 240.0));
+        assert_eq!(parse_seconds("0.004"), Ok(0.004));
+        assert!(parse_seconds("1/0").is_err());
+        assert!(parse_seconds("-1").is_err());
+        assert!(parse_seconds("x/3").is_err());
+    }
 }

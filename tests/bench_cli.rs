@@ -41,3 +41,181 @@ fn bench_scale_writes_csv_and_svg() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--sizes"));
 }
+
+fn temp_dir(what: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("drapery-{what}-{}", uuid::Uuid::now_v7()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn drapery(args: &[&str], dirs: &[&std::path::Path]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_drapery"))
+        .args(args)
+        .args(dirs)
+        .output()
+        .expect("runs")
+}
+
+/// A small cloth held by two corners, swinging for 0.2 s: smooth (no
+/// contact), so implicit Euler's first order shows at once.
+const HANGING: &str = r#"{"cloth": {"grid": [6, 6], "size": [0.5, 0.5], "origin": [0, 0, 1],
+    "pinned": [[0, 0], [5, 0]]}, "material": "cotton", "duration": 0.2, "fps": 30}"#;
+
+/// Column `name` of a CSV as strings.
+fn column<'a>(csv: &'a str, name: &str) -> Vec<&'a str> {
+    let mut lines = csv.lines();
+    let k = lines
+        .next()
+        .expect("header")
+        .split(',')
+        .position(|c| c == name)
+        .unwrap_or_else(|| panic!("no column {name}"));
+    lines.map(|l| l.split(',').nth(k).expect("field")).collect()
+}
+
+#[test]
+fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
+    let dir = temp_dir("precision");
+    let spec = dir.join("hanging.json");
+    std::fs::write(&spec, HANGING).expect("spec");
+    let first = dir.join("first");
+    let args = [
+        "--dt-max",
+        "1/60",
+        "--halvings",
+        "3",
+        "--repeat",
+        "2",
+        "--tolerances",
+        "1e-3,1e-6",
+        "--out",
+    ];
+    let run = |out: &std::path::Path, extra: &[&str]| {
+        let mut a = vec!["bench", "precision"];
+        a.extend(extra);
+        a.extend(args);
+        drapery(&a, &[out, &spec])
+    };
+    // `SPEC` after `--out DIR`: clap takes the positional anywhere.
+    let o = run(&first, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let csv = std::fs::read_to_string(first.join("precision.csv")).expect("csv");
+    let sweeps = column(&csv, "sweep");
+    assert_eq!(sweeps, ["dt", "dt", "dt", "dt", "tolerance", "tolerance"]);
+    let num = |name: &str| -> Vec<f64> {
+        column(&csv, name)
+            .iter()
+            .map(|v| v.parse().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let (dt, err) = (num("dt"), num("error_rms"));
+    // Implicit Euler is first order: each halving of the step divides
+    // the error by about 2, i.e. a local order log2(ratio) near 1. The
+    // bounds 0.6..1.7 per halving and 0.8..1.5 on average allow for the
+    // reference's own error (at 1/8 of the smallest step it inflates the
+    // last ratio towards (2 - 1/8) / (1 - 1/8) = 2.14) and for the
+    // higher-order terms at the large steps; a zeroth- or second-order
+    // error would fall outside them.
+    let orders: Vec<f64> = (0..3)
+        .map(|k| {
+            assert!((dt[k] / dt[k + 1] - 2.0).abs() < 1e-9);
+            (err[k] / err[k + 1]).log2()
+        })
+        .collect();
+    assert!(
+        orders.iter().all(|p| (0.6..1.7).contains(p)),
+        "{orders:?}: {csv}"
+    );
+    let mean = orders.iter().sum::<f64>() / 3.0;
+    assert!((0.8..1.5).contains(&mean), "{orders:?}: {csv}");
+    // The solver's error shrinks with its tolerance.
+    let solver = num("solver_error_rms");
+    assert!(solver[4] > solver[5] && solver[5] < 1e-4, "{csv}");
+    assert!(column(&csv, "pareto").contains(&"true"));
+    assert!(stderr.contains("observed order in dt"), "{stderr}");
+    assert!(first.join("reference.bin").is_file());
+    let svg = std::fs::read_to_string(first.join("precision.svg")).expect("svg");
+    assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
+
+    // The saved reference gives the same errors without being recomputed.
+    let second = dir.join("second");
+    let o = drapery(
+        &[
+            "bench",
+            "precision",
+            "--dt-max",
+            "1/60",
+            "--repeat",
+            "1",
+            "--halvings",
+            "3",
+            "--tolerances",
+            "1e-3,1e-6",
+            "--reference",
+        ],
+        &[&first, std::path::Path::new("--out"), &second, &spec],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!second.join("reference.bin").exists());
+    let again = std::fs::read_to_string(second.join("precision.csv")).expect("csv");
+    assert_eq!(column(&again, "error_rms"), column(&csv, "error_rms"));
+
+    // A reference of another scene is refused, naming the flag.
+    std::fs::write(
+        &spec,
+        HANGING
+            .replace("[6, 6]", "[7, 7]")
+            .replace("[5, 0]", "[6, 0]"),
+    )
+    .expect("spec");
+    let o = drapery(
+        &[
+            "bench",
+            "precision",
+            "--dt-max",
+            "1/60",
+            "--halvings",
+            "3",
+            "--reference",
+        ],
+        &[&first, std::path::Path::new("--out"), &second, &spec],
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--reference"));
+}
+
+#[test]
+fn bench_stress_writes_csv_and_replayable_specs() {
+    let out = temp_dir("stress");
+    let o = drapery(
+        &[
+            "bench",
+            "stress",
+            "--size",
+            "6",
+            "--only",
+            "tablecloth-pull 8,impact",
+            "--out",
+        ],
+        &[&out],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("stress.csv")).expect("csv");
+    assert!(csv.starts_with(
+        "case,dt,finite,max_stretch,min_signed_distance,cg_iterations_max,unconverged_solves,wall_seconds,pass"
+    ));
+    assert_eq!(
+        column(&csv, "case"),
+        ["impact 10 m/s", "tablecloth-pull 8 m/s"]
+    );
+    assert_eq!(column(&csv, "pass"), ["true", "true"]);
+    // Each case's scene replays with `drapery run`.
+    let spec = out.join("specs").join("impact-10-m-s.json");
+    let o = drapery(&["validate"], &[&spec]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let o = drapery(&["bench", "stress", "--only", "nothing", "--out"], &[&out]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--only"));
+}

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 /// A rigid obstacle.
 #[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Obstacle {
     /// A sphere.
@@ -107,7 +107,7 @@ pub struct MeshSource {
 
 /// Rigid motion: constant velocities, or keyframes.
 #[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motion {
     /// Constant linear velocity, m/s.

@@ -3,7 +3,10 @@
 
 mod fit;
 mod plot;
+mod precision;
+mod runner;
 mod scale;
+mod stress;
 
 use std::process::ExitCode;
 
@@ -12,6 +15,8 @@ use crate::cli::BenchCommand;
 /// Runs one study.
 pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitCode> {
     match cmd {
+        BenchCommand::Precision(args) => precision::run(args),
+        BenchCommand::Stress(args) => stress::run(args),
         BenchCommand::Scale(args) => scale::run(args),
     }
 }

@@ -8,17 +8,15 @@
 //! `p` of time per step ~ particles^p is fitted by least squares on the
 //! log-log points.
 
+use anyhow::Context;
+use drapery_sim::spec::{PinEntry, Spec};
 use std::fmt::Write as _;
 use std::process::ExitCode;
-use std::time::Instant;
-
-use anyhow::Context;
-use drapery_sim::sim::{Control, Simulation};
-use drapery_sim::spec::{Limits, PinEntry, Spec};
 
 use super::fit::power_law;
 use super::peak_rss_mib;
 use super::plot::{Series, loglog};
+use super::runner;
 use crate::cli::ScaleArgs;
 
 /// The default scene: `examples/scenes/sphere-drape-30.json`.
@@ -65,17 +63,15 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
     let mut rows = Vec::new();
     for &n in &args.sizes {
         let spec = resized(&base, n, args.duration);
-        let scene = spec
-            .validate(&Limits::default())
-            .map_err(|e| anyhow::anyhow!("{n}x{n}: {e}"))?;
-        let mut sim = Simulation::new(&scene)?;
-        let mut rec = sim.recorder();
-        let start = Instant::now();
-        sim.run(&Control::default(), &mut rec, |_, _| Ok::<(), String>(()))?;
-        let stats = rec.finish(start.elapsed().as_secs_f64());
+        let scene = runner::scene(&spec, &format!("{n}x{n}"))?;
+        let out = runner::simulate(&scene, false)?;
+        if let Some(e) = out.error {
+            anyhow::bail!("{n}x{n}: {e}");
+        }
+        let stats = out.stats;
         let row = Row {
             n,
-            particles: scene.cloth.nu * scene.cloth.nv,
+            particles: stats.particles,
             steps: stats.steps,
             sim_seconds: stats.sim_seconds,
             wall_seconds: stats.wall_seconds,
@@ -199,6 +195,6 @@ mod tests {
             s.cloth.pinned,
             vec![[0, 0].into(), [10, 0].into(), [5, 10].into()]
         );
-        assert!(s.validate(&Limits::default()).is_ok());
+        assert!(s.validate(&drapery_sim::spec::Limits::default()).is_ok());
     }
 }

@@ -1,0 +1,147 @@
+//! The stability stress suite: scenes built to break the solver, and the
+//! checks each must pass.
+//!
+//! Every case must finish with finite numbers, keep every edge's stretch
+//! under its bound at every frame, keep every particle within 1 mm of the
+//! outside of every obstacle's true surface (method.md §3: the offset
+//! surface is where contact acts, the true surface is what must not be
+//! crossed), and converge every solve within the iteration cap (§2). The
+//! suite lives in the core so that `drapery bench stress` (full size) and
+//! `cargo test` (small size) run the very same cases.
+
+mod cases;
+mod crumple;
+
+use std::time::Instant;
+
+pub use cases::cases;
+pub use crumple::crumple;
+
+use crate::sim::{Control, Simulation};
+use crate::spec::{Limits, Spec};
+
+/// How far inside a true surface a particle may be, metres: the user's
+/// bound ("no particle more than 1 mm inside an obstacle").
+pub const MAX_PENETRATION: f64 = 1e-3;
+
+/// One stress case.
+#[derive(Debug, Clone)]
+pub struct Case {
+    /// Case family and parameter, e.g. `tablecloth-pull 8 m/s`.
+    pub name: String,
+    /// The scene.
+    pub spec: Spec,
+    /// Start from a crumpled cloth (this seed) instead of the flat grid.
+    pub crumple_seed: Option<u64>,
+    /// Largest edge length over rest length allowed at any frame.
+    pub max_stretch: f64,
+}
+
+/// What a case did, and whether it passed.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The case's name.
+    pub case: String,
+    /// The step the scene asked for, seconds.
+    pub dt: f64,
+    /// No NaN or infinity anywhere.
+    pub finite: bool,
+    /// Largest edge length over rest length at any frame.
+    pub max_stretch: f64,
+    /// Smallest signed distance of any particle to any obstacle's true
+    /// surface at any frame, metres (negative: inside); `None` without
+    /// obstacles.
+    pub min_signed_distance: Option<f64>,
+    /// Most CG iterations of any one solve.
+    pub cg_iterations_max: usize,
+    /// Solves that stopped at the iteration cap.
+    pub unconverged_solves: usize,
+    /// Wall time of the run, seconds.
+    pub wall_seconds: f64,
+    /// Every check that failed, in words; empty when the case passed.
+    pub failures: Vec<String>,
+}
+
+impl Outcome {
+    /// Whether every check held.
+    pub fn pass(&self) -> bool {
+        self.failures.is_empty()
+    }
+}
+
+/// Runs `case` to its end and checks it.
+pub fn run(case: &Case) -> Outcome {
+    let mut out = Outcome {
+        case: case.name.clone(),
+        dt: match case.spec.solver.dt {
+            crate::spec::TimeStep::Fixed(dt) => dt,
+            crate::spec::TimeStep::Adaptive => f64::NAN,
+        },
+        finite: false,
+        max_stretch: f64::NAN,
+        min_signed_distance: None,
+        cg_iterations_max: 0,
+        unconverged_solves: 0,
+        wall_seconds: 0.0,
+        failures: Vec::new(),
+    };
+    let scene = match case.spec.validate(&Limits::default()) {
+        Ok(s) => s,
+        Err(e) => {
+            out.failures.push(format!("invalid scene: {e}"));
+            return out;
+        }
+    };
+    let mut sim = match Simulation::new(&scene) {
+        Ok(s) => s,
+        Err(e) => {
+            out.failures.push(format!("cannot build: {e}"));
+            return out;
+        }
+    };
+    if let Some(seed) = case.crumple_seed {
+        let mut state = sim.state().clone();
+        let up = -sim.scene().gravity;
+        state.x = crumple(sim.grid(), &sim.model().stretch, up, seed);
+        sim.set_state(state);
+    }
+    let mut rec = sim.recorder();
+    let start = Instant::now();
+    let result = sim.run(&Control::default(), &mut rec, |_, _| Ok::<(), String>(()));
+    let stats = rec.finish(start.elapsed().as_secs_f64());
+    out.finite = stats.finite;
+    out.max_stretch = stats.max_stretch_any_frame;
+    out.min_signed_distance = stats.min_signed_distance;
+    out.cg_iterations_max = stats.cg_iterations_max;
+    out.unconverged_solves = stats.unconverged_solves;
+    out.wall_seconds = stats.wall_seconds;
+    if let Err(e) = result {
+        out.failures.push(format!("stopped: {e}"));
+    }
+    if !stats.finite {
+        out.failures.push("non-finite numbers".into());
+    }
+    // Written as "within the bound" so a NaN fails.
+    let stretch_ok = stats.max_stretch_any_frame <= case.max_stretch;
+    if !stretch_ok {
+        out.failures.push(format!(
+            "stretch {:.2} % over the bound of {:.0} %",
+            100.0 * (stats.max_stretch_any_frame - 1.0),
+            100.0 * (case.max_stretch - 1.0)
+        ));
+    }
+    let outside = stats
+        .min_signed_distance
+        .is_none_or(|d| d >= -MAX_PENETRATION);
+    if let (false, Some(d)) = (outside, stats.min_signed_distance) {
+        out.failures
+            .push(format!("a particle {:.2} mm inside an obstacle", -d * 1e3));
+    }
+    if stats.unconverged_solves > 0 {
+        out.failures.push(format!(
+            "{} solves hit the cap of {} CG iterations",
+            stats.unconverged_solves, scene.solver.max_iterations
+        ));
+    }
+    out
+}

@@ -1,0 +1,69 @@
+//! One simulation run for the studies: its statistics, optionally every
+//! frame's positions, and how it ended.
+
+use std::time::Instant;
+
+use drapery_sim::math::Vec3;
+use drapery_sim::sim::{Control, RunStats, SimError, Simulation};
+use drapery_sim::spec::{Limits, Scene, Spec};
+
+/// What one run produced.
+#[derive(Debug)]
+pub struct Outcome {
+    /// Statistics of the frames that were finished, `wall_seconds` for the
+    /// whole run; `finite: false` if a step produced NaN or infinity.
+    pub stats: RunStats,
+    /// Positions of every frame (frame 0 first), when asked for.
+    pub frames: Vec<Vec<Vec3>>,
+    /// Why the run stopped early, if it did.
+    pub error: Option<SimError>,
+}
+
+/// Validates `spec` under the default limits, naming it in the error.
+pub fn scene(spec: &Spec, what: &str) -> anyhow::Result<Scene> {
+    spec.validate(&Limits::default())
+        .map_err(|e| anyhow::anyhow!("{what}: {e}"))
+}
+
+/// Runs `scene` to the end (or its first error), keeping each frame's
+/// positions if `capture`.
+pub fn simulate(scene: &Scene, capture: bool) -> anyhow::Result<Outcome> {
+    let mut sim = Simulation::new(scene)?;
+    let mut rec = sim.recorder();
+    let mut frames = Vec::new();
+    let start = Instant::now();
+    let result = sim.run(&Control::default(), &mut rec, |s, _| {
+        if capture {
+            frames.push(s.state().x.clone());
+        }
+        Ok::<(), String>(())
+    });
+    Ok(Outcome {
+        stats: rec.finish(start.elapsed().as_secs_f64()),
+        frames,
+        error: result.err(),
+    })
+}
+
+/// The median of `values` (the mean of the middle two for an even count).
+pub fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => values[n / 2],
+        _ => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&mut []).is_nan());
+    }
+}

@@ -1,0 +1,116 @@
+//! `drapery bench stress`: the core's stress suite (`drapery_sim::stress`)
+//! at `--size`, one line per case, `stress.csv`, exit 1 if any case fails.
+
+use std::fmt::Write as _;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use drapery_sim::stress::{self, Outcome};
+
+use crate::cli::StressArgs;
+
+/// Runs the suite.
+pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        (4..=1000).contains(&args.size),
+        "--size: between 4 and 1000"
+    );
+    let cases: Vec<_> = stress::cases(args.size)
+        .into_iter()
+        .filter(|c| args.only.is_empty() || args.only.iter().any(|o| c.name.contains(o.as_str())))
+        .collect();
+    anyhow::ensure!(!cases.is_empty(), "--only: no case matches");
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    // Each case's scene, so a failure can be replayed with `drapery run`
+    // (a crumpled start is the one thing a spec cannot hold).
+    let specs = args.out.join("specs");
+    std::fs::create_dir_all(&specs)?;
+    for case in &cases {
+        let file = specs.join(format!("{}.json", slug(&case.name)));
+        std::fs::write(&file, serde_json::to_string_pretty(&case.spec)?)
+            .with_context(|| format!("writing {}", file.display()))?;
+    }
+    let mut outcomes = Vec::new();
+    for case in &cases {
+        let o = stress::run(case);
+        eprintln!(
+            "{} {:<28} stretch {:>6.2} %  min distance {:>9}  CG max {:>4}  {:>7.2} s{}",
+            if o.pass() { "pass" } else { "FAIL" },
+            o.case,
+            100.0 * (o.max_stretch - 1.0),
+            o.min_signed_distance
+                .map_or("-".into(), |d| format!("{:.2} mm", d * 1e3)),
+            o.cg_iterations_max,
+            o.wall_seconds,
+            if o.pass() {
+                String::new()
+            } else {
+                format!(": {}", o.failures.join("; "))
+            }
+        );
+        outcomes.push(o);
+    }
+    std::fs::write(args.out.join("stress.csv"), csv(&outcomes))?;
+    let failed = outcomes.iter().filter(|o| !o.pass()).count();
+    eprintln!(
+        "{} of {} cases passed; wrote {}/stress.csv",
+        outcomes.len() - failed,
+        outcomes.len(),
+        args.out.display()
+    );
+    Ok(if failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// `tablecloth-pull 0.5 m/s` -> `tablecloth-pull-0.5-m-s`.
+fn slug(name: &str) -> String {
+    let mut out = String::new();
+    for c in name.chars() {
+        if c.is_ascii_alphanumeric() || c == '.' {
+            out.push(c);
+        } else if !out.ends_with('-') {
+            out.push('-');
+        }
+    }
+    out.trim_matches('-').to_owned()
+}
+
+fn csv(outcomes: &[Outcome]) -> String {
+    let mut out = String::from(
+        "case,dt,finite,max_stretch,min_signed_distance,cg_iterations_max,unconverged_solves,wall_seconds,pass,failures\n",
+    );
+    for o in outcomes {
+        let _ = writeln!(
+            out,
+            "{},{:.6e},{},{:.6},{},{},{},{:.4},{},\"{}\"",
+            o.case,
+            o.dt,
+            o.finite,
+            o.max_stretch,
+            o.min_signed_distance
+                .map_or(String::new(), |d| format!("{d:.6e}")),
+            o.cg_iterations_max,
+            o.unconverged_solves,
+            o.wall_seconds,
+            o.pass(),
+            o.failures.join("; ").replace('"', "'")
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn case_names_become_file_names() {
+        assert_eq!(
+            super::slug("tablecloth-pull 0.5 m/s"),
+            "tablecloth-pull-0.5-m-s"
+        );
+        assert_eq!(super::slug("hanging dt 1.00e-4"), "hanging-dt-1.00e-4");
+    }
+}
