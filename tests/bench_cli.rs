@@ -137,6 +137,10 @@ fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
     assert!(first.join("reference.bin").is_file());
     let svg = std::fs::read_to_string(first.join("precision.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
+    // Every run's error frame by frame: 6 frames after frame 0, 6 runs.
+    let frames = std::fs::read_to_string(first.join("precision-frames.csv")).expect("frames");
+    assert_eq!(frames.lines().count(), 1 + 6 * 6, "{frames}");
+    assert!(first.join("precision-frames.svg").is_file());
 
     // The saved reference gives the same errors without being recomputed.
     let second = dir.join("second");

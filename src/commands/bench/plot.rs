@@ -12,12 +12,19 @@ pub struct Series {
     pub line: bool,
 }
 
-const COLOURS: [RGBColor; 4] = [
+const COLOURS: [RGBColor; 8] = [
     RGBColor(59, 125, 216),
     RGBColor(240, 140, 46),
     RGBColor(22, 121, 76),
     RGBColor(163, 21, 27),
+    RGBColor(117, 79, 182),
+    RGBColor(0, 150, 170),
+    RGBColor(140, 86, 75),
+    RGBColor(90, 90, 90),
 ];
+
+/// Curves with more points than this are drawn without markers.
+const MARKED_POINTS: usize = 20;
 
 /// Draws `series` on log-log axes into `path`.
 pub fn loglog(
@@ -65,7 +72,9 @@ pub fn loglog(
                 .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
                 .label(s.name.as_str())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
+            if pts.len() <= MARKED_POINTS {
+                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
+            }
         } else {
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?

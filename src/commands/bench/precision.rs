@@ -50,6 +50,8 @@ struct Row {
     /// Against the tight-tolerance run at the same step (tolerance sweep).
     solver_error_rms: Option<f64>,
     pareto: bool,
+    /// RMS error of each frame after the first, over the diagonal.
+    per_frame: Vec<f64>,
 }
 
 /// Positions of every frame of a reference run, with how it was made.
@@ -173,17 +175,27 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
             &reference.frames,
             diagonal,
         )?;
-        row.solver_error_rms = Some(position_error(&frames, &baseline, diagonal).0);
+        row.solver_error_rms = Some(position_error(&frames, &baseline, diagonal).rms);
         print_row(&row);
         rows.push(row);
     }
     mark_pareto(&mut rows);
 
     std::fs::write(args.out.join("precision.csv"), csv(&rows))?;
+    std::fs::write(
+        args.out.join("precision-frames.csv"),
+        frames_csv(&rows, reference.frame_dt),
+    )?;
     plot(&args.out.join("precision.svg"), &name, &rows, args)?;
+    plot_frames(
+        &args.out.join("precision-frames.svg"),
+        &name,
+        &rows,
+        reference.frame_dt,
+    )?;
     report(&rows);
     eprintln!(
-        "wrote {}/precision.csv and precision.svg",
+        "wrote {}/precision.csv, precision.svg, precision-frames.csv and precision-frames.svg",
         args.out.display()
     );
     Ok(ExitCode::SUCCESS)
@@ -219,7 +231,7 @@ fn measure(
     for _ in 1..repeat {
         walls.push(runner::simulate(scene, false)?.stats.wall_seconds);
     }
-    let (error_rms, error_max) = position_error(&first.frames, reference, diagonal);
+    let errors = position_error(&first.frames, reference, diagonal);
     let s = &first.stats;
     let row = Row {
         sweep,
@@ -230,18 +242,20 @@ fn measure(
         cg_iterations: s.cg_iterations_total,
         unconverged_solves: s.unconverged_solves,
         finite: s.finite && first.error.is_none(),
+        // A run that stopped early has no error to report.
         error_rms: if first.error.is_none() {
-            error_rms
+            errors.rms
         } else {
             f64::NAN
         },
         error_max: if first.error.is_none() {
-            error_max
+            errors.max
         } else {
             f64::NAN
         },
         solver_error_rms: None,
         pareto: false,
+        per_frame: errors.per_frame,
     };
     if let Some(e) = &first.error {
         eprintln!(
@@ -252,27 +266,47 @@ fn measure(
     Ok((row, first.frames))
 }
 
-/// RMS and largest distance between matching particles over the frames
-/// both runs have, frame 0 excluded, each divided by `diagonal`.
-fn position_error(run: &[Vec<Vec3>], reference: &[Vec<Vec3>], diagonal: f64) -> (f64, f64) {
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    let mut max: f64 = 0.0;
+/// Position error of a run against another, over the diagonal.
+#[derive(Debug, Clone, PartialEq)]
+struct Errors {
+    /// RMS distance over particles and frames.
+    rms: f64,
+    /// Largest distance of any particle in any frame.
+    max: f64,
+    /// RMS distance of each frame.
+    per_frame: Vec<f64>,
+}
+
+/// Distances between matching particles over the frames both runs have,
+/// frame 0 excluded (both start from the same state), each divided by
+/// `diagonal`.
+fn position_error(run: &[Vec<Vec3>], reference: &[Vec<Vec3>], diagonal: f64) -> Errors {
+    let (mut sum, mut count, mut max) = (0.0, 0usize, 0.0f64);
+    let mut per_frame = Vec::new();
     for (a, b) in run.iter().zip(reference).skip(1) {
-        for (p, q) in a.iter().zip(b) {
-            let d2 = (p - q).norm_squared();
-            sum += d2;
-            max = max.max(d2);
-            count += 1;
-        }
+        let frame: f64 = a.iter().zip(b).map(|(p, q)| (p - q).norm_squared()).sum();
+        let largest = a
+            .iter()
+            .zip(b)
+            .map(|(p, q)| (p - q).norm_squared())
+            .fold(0.0, f64::max);
+        per_frame.push((frame / a.len().max(1) as f64).sqrt() / diagonal);
+        sum += frame;
+        count += a.len();
+        max = max.max(largest);
     }
     if count == 0 {
-        return (f64::NAN, f64::NAN);
+        return Errors {
+            rms: f64::NAN,
+            max: f64::NAN,
+            per_frame,
+        };
     }
-    (
-        (sum / count as f64).sqrt() / diagonal,
-        max.sqrt() / diagonal,
-    )
+    Errors {
+        rms: (sum / count as f64).sqrt() / diagonal,
+        max: max.sqrt() / diagonal,
+        per_frame,
+    }
 }
 
 /// Marks the runs no other run beats in both wall time and RMS error.
@@ -378,6 +412,53 @@ fn csv(rows: &[Row]) -> String {
         );
     }
     out
+}
+
+/// The error of every frame of every run: where runs part ways.
+fn frames_csv(rows: &[Row], frame_dt: f64) -> String {
+    let mut out = String::from("sweep,dt,tolerance,frame,time,error_rms\n");
+    for r in rows {
+        for (k, e) in r.per_frame.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                "{},{:.9e},{:e},{},{:.6},{:.6e}",
+                r.sweep,
+                r.dt,
+                r.tolerance,
+                k + 1,
+                (k + 1) as f64 * frame_dt,
+                e
+            );
+        }
+    }
+    out
+}
+
+/// Error against simulated time for the time-step sweep: a smooth problem
+/// keeps its curves apart by the factor of each halving; a chaotic one
+/// (a symmetric drape choosing its folds) sees them merge once the runs
+/// have chosen differently.
+fn plot_frames(path: &Path, name: &str, rows: &[Row], frame_dt: f64) -> anyhow::Result<()> {
+    let series: Vec<Series> = rows
+        .iter()
+        .filter(|r| r.sweep == "dt")
+        .map(|r| Series {
+            name: format!("dt {:.2e} s", r.dt),
+            points: r
+                .per_frame
+                .iter()
+                .enumerate()
+                .map(|(k, e)| ((k + 1) as f64 * frame_dt, *e))
+                .collect(),
+            line: true,
+        })
+        .collect();
+    loglog(
+        path,
+        &format!("{name}: error of each frame, time-step sweep"),
+        ("simulated time, s", "RMS position error / cloth diagonal"),
+        &series,
+    )
 }
 
 fn plot(path: &Path, name: &str, rows: &[Row], args: &PrecisionArgs) -> anyhow::Result<()> {
@@ -515,6 +596,7 @@ mod tests {
             error_max: err,
             solver_error_rms: None,
             pareto: false,
+            per_frame: Vec::new(),
         }
     }
 
@@ -552,9 +634,10 @@ mod tests {
             vec![Vec3::new(0.3, 0.0, 0.0), Vec3::zeros()],
         ];
         let b = vec![vec![Vec3::new(9.0, 0.0, 0.0); 2], vec![Vec3::zeros(); 2]];
-        let (rms, max) = position_error(&a, &b, 2.0);
-        assert!((rms - (0.09f64 / 2.0).sqrt() / 2.0).abs() < 1e-15);
-        assert!((max - 0.15).abs() < 1e-15);
+        let e = position_error(&a, &b, 2.0);
+        assert!((e.rms - (0.09f64 / 2.0).sqrt() / 2.0).abs() < 1e-15);
+        assert!((e.max - 0.15).abs() < 1e-15);
+        assert_eq!(e.per_frame, [e.rms]);
     }
 
     #[test]
