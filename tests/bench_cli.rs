@@ -223,3 +223,67 @@ fn bench_stress_writes_csv_and_replayable_specs() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--only"));
 }
+
+/// `bench precision` and `bench scale` run on every bundled scene (the
+/// canonical scenes), at sizes that take a fraction of a second: moving
+/// obstacles, meshes, pins and planes all go through both studies. (0.05 s
+/// and 0.1 s: at least one frame at every scene's rate, the slowest being
+/// 20 fps.)
+#[test]
+fn precision_and_scale_run_on_every_bundled_scene() {
+    let scenes = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(&scenes).expect("examples/scenes") {
+        let spec = entry.expect("entry").path();
+        let out = temp_dir("every-scene");
+        let o = drapery(
+            &[
+                "bench",
+                "precision",
+                "--duration",
+                "0.05",
+                "--tight-tolerance",
+                "1e-6",
+                "--reference-dt",
+                "1/240",
+                "--dt-max",
+                "1/60",
+                "--halvings",
+                "1",
+                "--repeat",
+                "1",
+                "--tolerances",
+                "1e-3",
+                "--out",
+            ],
+            &[&out, &spec],
+        );
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            spec.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let o = drapery(
+            &[
+                "bench",
+                "scale",
+                "--sizes",
+                "4,6",
+                "--duration",
+                "0.1",
+                "--spec",
+            ],
+            &[&spec, std::path::Path::new("--out"), &out],
+        );
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            spec.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(out.join("precision.csv").is_file() && out.join("scale.csv").is_file());
+        names.push(spec);
+    }
+    assert!(names.len() >= 9, "{names:?}");
+}

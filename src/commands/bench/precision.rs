@@ -382,7 +382,7 @@ fn report(rows: &[Row]) {
     front.sort_by(|a, b| a.wall_seconds.total_cmp(&b.wall_seconds));
     for r in front {
         eprintln!(
-            "  {:>8.3} s  {:.3e}  ({} dt {:.3e} tol {:.0e})",
+            "  {:>8.3} s  {:.3e}  ({} sweep: dt {:.3e} s, tol {:.0e})",
             r.wall_seconds, r.error_rms, r.sweep, r.dt, r.tolerance
         );
     }
