@@ -193,7 +193,7 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
         &rows,
         reference.frame_dt,
     )?;
-    report(&rows);
+    report(&rows, reference.frame_dt);
     eprintln!(
         "wrote {}/precision.csv, precision.svg, precision-frames.csv and precision-frames.svg",
         args.out.display()
@@ -360,7 +360,27 @@ fn print_row(r: &Row) {
     );
 }
 
-fn report(rows: &[Row]) {
+/// The observed order at single frames, at eight times spread over the
+/// run: `(time, order)`. Where a problem is smooth it stays near one; where
+/// runs settle into different states (a symmetric drape choosing its
+/// folds) it falls to zero from the time they part.
+fn orders_over_time(rows: &[Row], frame_dt: f64) -> Vec<(f64, f64)> {
+    let sweep: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.sweep == "dt" && r.error_rms.is_finite())
+        .collect();
+    let frames = sweep.iter().map(|r| r.per_frame.len()).min().unwrap_or(0);
+    (1..=8)
+        .map(|k| (k * frames).div_ceil(8).max(1))
+        .filter(|&f| f <= frames)
+        .filter_map(|f| {
+            let pts: Vec<(f64, f64)> = sweep.iter().map(|r| (r.dt, r.per_frame[f - 1])).collect();
+            power_law(&pts).map(|(p, _)| (f as f64 * frame_dt, p))
+        })
+        .collect()
+}
+
+fn report(rows: &[Row], frame_dt: f64) {
     let (fit, pairs) = orders(rows);
     match fit {
         Some(p) => eprintln!("observed order in dt (least squares): {p:.2}"),
@@ -368,6 +388,17 @@ fn report(rows: &[Row]) {
     }
     for (dt, p) in pairs {
         eprintln!("  order down to dt {dt:.3e}: {p:.2}");
+    }
+    let over_time = orders_over_time(rows, frame_dt);
+    if !over_time.is_empty() {
+        eprintln!(
+            "observed order at single frames: {}",
+            over_time
+                .iter()
+                .map(|(t, p)| format!("t={t:.2} s: {p:.2}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
     }
     let tol: Vec<(f64, f64)> = rows
         .iter()
@@ -625,6 +656,24 @@ mod tests {
         let (fit, pairs) = orders(&rows);
         assert!((fit.expect("fits") - 1.0).abs() < 1e-12);
         assert!(pairs.iter().all(|(_, p)| (p - 1.0).abs() < 1e-12));
+    }
+
+    #[test]
+    fn the_order_over_time_follows_each_frame() {
+        // Frame errors proportional to dt at first, then equal (the runs
+        // settled into different states): order 1, then 0.
+        let rows: Vec<Row> = (0..3)
+            .map(|k| {
+                let dt = 0.1 / f64::from(1 << k);
+                let mut r = row("dt", dt, 1.0, dt);
+                r.per_frame = (0..8).map(|f| if f < 4 { dt * 0.5 } else { 0.3 }).collect();
+                r
+            })
+            .collect();
+        let over = orders_over_time(&rows, 0.5);
+        assert_eq!(over.len(), 8);
+        assert!((over[0].0 - 0.5).abs() < 1e-12 && (over[0].1 - 1.0).abs() < 1e-12);
+        assert!((over[7].0 - 4.0).abs() < 1e-12 && over[7].1.abs() < 1e-12);
     }
 
     #[test]
