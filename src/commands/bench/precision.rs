@@ -29,7 +29,7 @@ use drapery_sim::math::Vec3;
 use drapery_sim::spec::{Scene, Spec, TimeStep, TimeStepping};
 
 use super::fit::power_law;
-use super::plot::{Series, loglog};
+use super::plot::{Series, Style, loglog};
 use super::runner::{self, median};
 use crate::cli::PrecisionArgs;
 
@@ -481,7 +481,7 @@ fn plot_frames(path: &Path, name: &str, rows: &[Row], frame_dt: f64) -> anyhow::
                 .enumerate()
                 .map(|(k, e)| ((k + 1) as f64 * frame_dt, *e))
                 .collect(),
-            line: true,
+            style: Style::Line,
         })
         .collect();
     loglog(
@@ -525,17 +525,17 @@ fn plot(path: &Path, name: &str, rows: &[Row], args: &PrecisionArgs) -> anyhow::
                     args.tight_tolerance
                 ),
                 points: curve("dt"),
-                line: true,
+                style: Style::Line,
             },
             Series {
                 name: format!("tolerance sweep at dt {fixed:.2e} s"),
                 points: curve("tolerance"),
-                line: true,
+                style: Style::Line,
             },
             Series {
                 name: "Pareto front".into(),
                 points: front,
-                line: true,
+                style: Style::Band,
             },
         ],
     )

@@ -15,7 +15,7 @@ use std::process::ExitCode;
 
 use super::fit::power_law;
 use super::peak_rss_mib;
-use super::plot::{Series, loglog};
+use super::plot::{Series, Style, loglog};
 use super::runner;
 use crate::cli::ScaleArgs;
 
@@ -103,7 +103,7 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
             .iter()
             .map(|r| (r.particles as f64, r.seconds_per_step()))
             .collect(),
-        line: false,
+        style: Style::Points,
     }];
     if let Some((p, c)) = fit {
         series.push(Series {
@@ -112,7 +112,7 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
                 .iter()
                 .map(|r| (r.particles as f64, c * (r.particles as f64).powf(p)))
                 .collect(),
-            line: true,
+            style: Style::Line,
         });
     }
     loglog(
