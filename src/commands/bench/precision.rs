@@ -63,8 +63,9 @@ struct Reference {
     frames: Vec<Vec<Vec3>>,
 }
 
-/// Runs the study; writes `precision.csv`, `precision.svg` and (unless it
-/// was given) `reference.bin`.
+/// Runs the study; writes `precision.csv` and `precision.svg`, the
+/// per-frame `precision-frames.csv` and `.svg`, and (unless it was given)
+/// `reference.bin`.
 pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(args.repeat >= 1, "--repeat: at least 1");
     anyhow::ensure!(args.halvings <= 12, "--halvings: at most 12");
