@@ -176,7 +176,11 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
             &reference.frames,
             diagonal,
         )?;
-        row.solver_error_rms = Some(position_error(&frames, &baseline, diagonal).rms);
+        // A run that stopped early has no solver error either.
+        row.solver_error_rms = row
+            .error_rms
+            .is_finite()
+            .then(|| position_error(&frames, &baseline, diagonal).rms);
         print_row(&row);
         rows.push(row);
     }
