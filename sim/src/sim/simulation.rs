@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use super::control::{Control, Progress};
 use super::error::SimError;
-use super::stats::{FrameStats, StatsRecorder};
+use super::stats::{FrameStats, RunStats, StatsRecorder};
 use crate::cloth::{ForceModel, Grid};
 use crate::collision::{CollisionCounters, CollisionStage, Contact, Trajectory};
 use crate::math::{Real, Vec3};
@@ -13,7 +13,7 @@ use crate::solver::{
     ClothState, Constraints, Integrator, MpcgOptions, Physics, SolveStatus, StageTimes, StepReport,
     make_preconditioner,
 };
-use crate::spec::{Scene, TimeStepping};
+use crate::spec::{ClothScene, Scene, TimeStepping};
 
 /// Largest edge stretch an adaptive step may reach before it is redone at
 /// half the size; beyond 10 % a fabric is far outside its linear range.
@@ -84,13 +84,13 @@ impl Simulation {
             x: grid.rest.clone(),
             v: vec![Vec3::zeros(); n],
         };
-        let anchors = scene.cloth.pinned.iter().map(|&i| grid.rest[i]).collect();
-        let pin_trajectories = scene
+        let pin_trajectories: Vec<Trajectory> = scene
             .cloth
             .pin_motions
             .iter()
             .map(|m| Trajectory::new(Some(m)))
             .collect();
+        let anchors = pin_anchors(&scene.cloth, &pin_trajectories, &grid.rest, 0.0);
         let mut pinned = vec![false; n];
         for &i in &scene.cloth.pinned {
             pinned[i] = true;
@@ -162,21 +162,12 @@ impl Simulation {
             self.grid.len(),
             "state has the wrong particle count"
         );
-        let cloth = &self.scene.cloth;
-        self.anchors = cloth
-            .pinned
-            .iter()
-            .zip(&cloth.pin_group)
-            .map(|(&i, group)| match group {
-                None => state.x[i],
-                Some(g) => {
-                    self.pin_trajectories[*g]
-                        .pose(state.time)
-                        .inverse_transform_point(&state.x[i].into())
-                        .coords
-                }
-            })
-            .collect();
+        self.anchors = pin_anchors(
+            &self.scene.cloth,
+            &self.pin_trajectories,
+            &state.x,
+            state.time,
+        );
         self.state = state;
         self.integrator.reset_warm_start();
         if let Some(stage) = &mut self.collision {
@@ -244,14 +235,20 @@ impl Simulation {
     fn constrain(&mut self, time: Real, h: Real) {
         self.constraints.clear();
         let cloth = &self.scene.cloth;
+        // Each group's pose at both ends of the step, once per group.
+        let poses: Vec<_> = self
+            .pin_trajectories
+            .iter()
+            .map(|m| (m.pose(time), m.pose(time + h)))
+            .collect();
         for ((&i, anchor), group) in cloth.pinned.iter().zip(&self.anchors).zip(&cloth.pin_group) {
             let (x, v) = (self.state.x[i], self.state.v[i]);
             match group {
                 None => self.constraints.fix(i, -v, anchor - x),
                 Some(g) => {
-                    let motion = &self.pin_trajectories[*g];
-                    let p0 = motion.pose(time) * nalgebra::Point3::from(*anchor);
-                    let p1 = motion.pose(time + h) * nalgebra::Point3::from(*anchor);
+                    let (start, end) = &poses[*g];
+                    let p0 = start * nalgebra::Point3::from(*anchor);
+                    let p1 = end * nalgebra::Point3::from(*anchor);
                     let target = (p1 - p0) / h;
                     self.constraints
                         .fix(i, target - v, p1.coords - (x + h * target));
@@ -533,6 +530,20 @@ impl Simulation {
         Ok(())
     }
 
+    /// [`Self::run`] with a fresh [`Self::recorder`], timed here: the
+    /// statistics of every finished frame (`wall_seconds` for the whole
+    /// call) and how the run ended.
+    pub fn run_recorded<E: std::fmt::Display>(
+        &mut self,
+        control: &Control<'_>,
+        on_frame: impl FnMut(&Self, &FrameStats) -> Result<(), E>,
+    ) -> (RunStats, Result<(), SimError>) {
+        let mut rec = self.recorder();
+        let start = Instant::now();
+        let result = self.run(control, &mut rec, on_frame);
+        (rec.finish(start.elapsed().as_secs_f64()), result)
+    }
+
     /// A fresh recorder for this simulation's run.
     pub fn recorder(&self) -> StatsRecorder {
         let mut rec = StatsRecorder::new(&self.scene.name, self.grid.len());
@@ -581,6 +592,27 @@ impl Simulation {
     pub fn collision(&self) -> Option<&CollisionStage> {
         self.collision.as_ref()
     }
+}
+
+/// Where each pinned particle is held, given positions `x` at `time`: a
+/// fixed pin where it is, a moving one in its motion's frame at `time`,
+/// so it follows the motion's change from there. One rule for a new run
+/// and a replaced state.
+fn pin_anchors(cloth: &ClothScene, motions: &[Trajectory], x: &[Vec3], time: Real) -> Vec<Vec3> {
+    cloth
+        .pinned
+        .iter()
+        .zip(&cloth.pin_group)
+        .map(|(&i, group)| match group {
+            None => x[i],
+            Some(g) => {
+                motions[*g]
+                    .pose(time)
+                    .inverse_transform_point(&x[i].into())
+                    .coords
+            }
+        })
+        .collect()
 }
 
 /// Sums step reports within a frame.

@@ -12,8 +12,6 @@
 mod cases;
 mod crumple;
 
-use std::time::Instant;
-
 pub use cases::cases;
 pub use crumple::crumple;
 
@@ -105,10 +103,7 @@ pub fn run(case: &Case) -> Outcome {
         state.x = crumple(sim.grid(), &sim.model().stretch, up, seed);
         sim.set_state(state);
     }
-    let mut rec = sim.recorder();
-    let start = Instant::now();
-    let result = sim.run(&Control::default(), &mut rec, |_, _| Ok::<(), String>(()));
-    let stats = rec.finish(start.elapsed().as_secs_f64());
+    let (stats, result) = sim.run_recorded(&Control::default(), |_, _| Ok::<(), String>(()));
     out.finite = stats.finite;
     out.max_stretch = stats.max_stretch_any_frame;
     out.min_signed_distance = stats.min_signed_distance;

@@ -77,9 +77,7 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
         args.tolerances.iter().all(|t| *t > 0.0 && *t < 0.5),
         "--tolerances: each between 0 and 0.5"
     );
-    let text = super::super::read_spec(&args.spec)?;
-    let mut base: Spec = crate::specfile::parse(&text)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.spec.display()))?;
+    let mut base = runner::read_spec(&args.spec)?;
     if let Some(d) = args.duration {
         anyhow::ensure!(d > 0.0 && d.is_finite(), "--duration: must be positive");
         base.duration = d;
@@ -144,16 +142,8 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
         }
     };
 
-    let mut rows = Vec::new();
-    // Tight runs by step, for the tolerance sweep's solver error.
-    let mut tight: Vec<(f64, Vec<Vec<Vec3>>)> = Vec::new();
-    for &dt in &dts {
-        let scene = runner::scene(&with(&base, dt, args.tight_tolerance), "time-step sweep")?;
-        let (row, frames) = measure("dt", &scene, args.repeat, &reference.frames, diagonal)?;
-        print_row(&row);
-        rows.push(row);
-        tight.push((step_of(&scene), frames));
-    }
+    // The tolerance sweep's step, and its tight run: the time-step sweep's
+    // run at that step if it has one.
     let fixed_dt = args.tolerance_dt.unwrap_or(match base.solver.dt {
         TimeStep::Fixed(dt) => dt,
         TimeStep::Adaptive => smallest,
@@ -163,8 +153,19 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
         "tolerance sweep",
     )?;
     let h = step_of(&fixed);
-    let baseline = match tight.iter().find(|(d, _)| (d - h).abs() <= 1e-12 * h) {
-        Some((_, f)) => f.clone(),
+    let mut baseline = None;
+    let mut rows = Vec::new();
+    for &dt in &dts {
+        let scene = runner::scene(&with(&base, dt, args.tight_tolerance), "time-step sweep")?;
+        let (row, frames) = measure("dt", &scene, args.repeat, &reference.frames, diagonal)?;
+        print_row(&row);
+        if (row.dt - h).abs() <= 1e-12 * h {
+            baseline = Some(frames);
+        }
+        rows.push(row);
+    }
+    let baseline = match baseline {
+        Some(frames) => frames,
         None => measure("baseline", &fixed, 1, &reference.frames, diagonal)?.1,
     };
     for &tol in &args.tolerances {
@@ -237,6 +238,8 @@ fn measure(
         walls.push(runner::simulate(scene, false)?.stats.wall_seconds);
     }
     let errors = position_error(&first.frames, reference, diagonal);
+    // A run that stopped early has no error to report.
+    let completed = first.error.is_none();
     let s = &first.stats;
     let row = Row {
         sweep,
@@ -246,18 +249,9 @@ fn measure(
         wall_seconds: median(&mut walls),
         cg_iterations: s.cg_iterations_total,
         unconverged_solves: s.unconverged_solves,
-        finite: s.finite && first.error.is_none(),
-        // A run that stopped early has no error to report.
-        error_rms: if first.error.is_none() {
-            errors.rms
-        } else {
-            f64::NAN
-        },
-        error_max: if first.error.is_none() {
-            errors.max
-        } else {
-            f64::NAN
-        },
+        finite: s.finite && completed,
+        error_rms: if completed { errors.rms } else { f64::NAN },
+        error_max: if completed { errors.max } else { f64::NAN },
         solver_error_rms: None,
         pareto: false,
         per_frame: errors.per_frame,
@@ -289,16 +283,15 @@ fn position_error(run: &[Vec<Vec3>], reference: &[Vec<Vec3>], diagonal: f64) -> 
     let (mut sum, mut count, mut max) = (0.0, 0usize, 0.0f64);
     let mut per_frame = Vec::new();
     for (a, b) in run.iter().zip(reference).skip(1) {
-        let frame: f64 = a.iter().zip(b).map(|(p, q)| (p - q).norm_squared()).sum();
-        let largest = a
-            .iter()
-            .zip(b)
-            .map(|(p, q)| (p - q).norm_squared())
-            .fold(0.0, f64::max);
+        let mut frame = 0.0;
+        for (p, q) in a.iter().zip(b) {
+            let d2 = (p - q).norm_squared();
+            frame += d2;
+            max = max.max(d2);
+        }
         per_frame.push((frame / a.len().max(1) as f64).sqrt() / diagonal);
         sum += frame;
         count += a.len();
-        max = max.max(largest);
     }
     if count == 0 {
         return Errors {

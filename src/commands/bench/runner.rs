@@ -1,8 +1,6 @@
 //! One simulation run for the studies: its statistics, optionally every
 //! frame's positions, and how it ended.
 
-use std::time::Instant;
-
 use drapery_sim::math::Vec3;
 use drapery_sim::sim::{Control, RunStats, SimError, Simulation};
 use drapery_sim::spec::{Limits, Scene, Spec};
@@ -19,6 +17,13 @@ pub struct Outcome {
     pub error: Option<SimError>,
 }
 
+/// Reads and parses a spec file (errors name the file and the field);
+/// validation comes per run, with each run's settings.
+pub fn read_spec(path: &std::path::Path) -> anyhow::Result<Spec> {
+    let text = crate::commands::read_spec(path)?;
+    crate::specfile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
 /// Validates `spec` under the default limits, naming it in the error.
 pub fn scene(spec: &Spec, what: &str) -> anyhow::Result<Scene> {
     spec.validate(&Limits::default())
@@ -29,17 +34,15 @@ pub fn scene(spec: &Spec, what: &str) -> anyhow::Result<Scene> {
 /// positions if `capture`.
 pub fn simulate(scene: &Scene, capture: bool) -> anyhow::Result<Outcome> {
     let mut sim = Simulation::new(scene)?;
-    let mut rec = sim.recorder();
     let mut frames = Vec::new();
-    let start = Instant::now();
-    let result = sim.run(&Control::default(), &mut rec, |s, _| {
+    let (stats, result) = sim.run_recorded(&Control::default(), |s, _| {
         if capture {
             frames.push(s.state().x.clone());
         }
         Ok::<(), String>(())
     });
     Ok(Outcome {
-        stats: rec.finish(start.elapsed().as_secs_f64()),
+        stats,
         frames,
         error: result.err(),
     })

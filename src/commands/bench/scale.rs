@@ -52,11 +52,10 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
         args.duration > 0.0 && args.duration.is_finite(),
         "--duration: must be positive"
     );
-    let text = match &args.spec {
-        Some(p) => super::super::read_spec(p)?,
-        None => SPHERE_DRAPE.to_owned(),
+    let base: Spec = match &args.spec {
+        Some(p) => runner::read_spec(p)?,
+        None => serde_json::from_str(SPHERE_DRAPE).context("the built-in sphere drape")?,
     };
-    let base: Spec = serde_json::from_str(&text).context("parsing the scene")?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
 
