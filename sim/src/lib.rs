@@ -22,7 +22,6 @@ pub mod mesh;
 pub mod sim;
 pub mod solver;
 pub mod spec;
-pub mod stress;
 
 #[cfg(test)]
 pub(crate) mod testing;

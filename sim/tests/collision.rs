@@ -1,4 +1,4 @@
-//! Collision scenarios (method.md §3, §4): every shared scene with
+//! Collision scenarios (method.md §3, §4): every example scene with
 //! obstacles stays outside the true surfaces and within the stretch bound,
 //! and the physical facts of contact hold — resting without a gap, sharp
 //! edges covered by the offset, Coulomb friction on a slope against the
@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{run_frames, scene_from_json, shared_scene};
+use common::{example_scene, run_frames, scene_from_json};
 use drapery_sim::math::{Real, Vec3};
 use drapery_sim::sim::{Control, FrameStats, Simulation};
 use drapery_sim::spec::Scene;
@@ -57,7 +57,7 @@ fn sphere_distance(p: &Vec3, center: Vec3, radius: Real) -> Real {
 
 #[test]
 fn sphere_drape_30_rests_on_the_sphere_and_drapes_below_the_equator() {
-    let scene = shared_scene("sphere-drape-30.json");
+    let scene = example_scene("sphere-drape-30.json");
     let (_, frames) = run_checked(&scene, Real::INFINITY);
     let last = frames.last().expect("frames");
     // The particle nearest the pole's vertical: within 1 cm of the sphere,
@@ -74,12 +74,12 @@ fn sphere_drape_30_rests_on_the_sphere_and_drapes_below_the_equator() {
 
 #[test]
 fn sphere_drape_100_stays_outside() {
-    run_checked(&shared_scene("sphere-drape-100.json"), Real::INFINITY);
+    run_checked(&example_scene("sphere-drape-100.json"), Real::INFINITY);
 }
 
 #[test]
 fn table_drape_edges_do_not_cut_into_the_table() {
-    let scene = shared_scene("table-drape.json");
+    let scene = example_scene("table-drape.json");
     let (sim, frames) = run_checked(&scene, Real::INFINITY);
     let (nu, nv) = (sim.grid().nu, sim.grid().nv);
     let (center, half) = (Vec3::new(0.0, 0.0, 0.375), Vec3::new(0.5, 0.5, 0.375));
@@ -112,7 +112,7 @@ fn table_drape_edges_do_not_cut_into_the_table() {
 
 #[test]
 fn rotating_sphere_carries_the_cloth_round() {
-    let scene = shared_scene("rotating-sphere.json");
+    let scene = example_scene("rotating-sphere.json");
     let (_, frames) = run_checked(&scene, Real::INFINITY);
     // Mean angular velocity about z of particles on the sphere's cap over
     // the last 10 frames, against the sphere's π rad/s.
@@ -136,12 +136,12 @@ fn rotating_sphere_carries_the_cloth_round() {
 
 #[test]
 fn cantilever_rests_on_its_box() {
-    run_checked(&shared_scene("cantilever.json"), Real::INFINITY);
+    run_checked(&example_scene("cantilever.json"), Real::INFINITY);
 }
 
 #[test]
 fn pedestal_mesh_rests_on_its_mesh() {
-    run_checked(&shared_scene("pedestal-mesh.json"), Real::INFINITY);
+    run_checked(&example_scene("pedestal-mesh.json"), Real::INFINITY);
 }
 
 /// The sphere rises 0.8 m under a cloth pinned at its four corners. Once
@@ -153,7 +153,7 @@ fn pedestal_mesh_rests_on_its_mesh() {
 /// checked while it is attainable (sphere top 0.15 m above the pins).
 #[test]
 fn rising_sphere_lifts_the_cloth_without_passing_through() {
-    let scene = shared_scene("rising-sphere.json");
+    let scene = example_scene("rising-sphere.json");
     let (_, frames) = run_checked(&scene, 1.25);
     let last = frames.last().expect("frames");
     let top = last.iter().map(|p| p.z).fold(Real::NEG_INFINITY, Real::max);

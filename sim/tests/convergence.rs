@@ -39,7 +39,8 @@ fn catenary_sag(n: usize) -> f64 {
         time: 0.0,
         v: vec![Vec3::zeros(); x.len()],
         x,
-    });
+    })
+    .expect("same cloth");
     let frames = common::run_frames(&mut sim);
     let last = frames.last().expect("frames");
     assert!(
@@ -70,7 +71,7 @@ fn catenary_sag_converges_to_the_analytic_value() {
 /// t = 1 s converges (successive differences shrink by a factor > 1.5).
 #[test]
 fn hanging_corners_lowest_point_converges_under_refinement() {
-    let base = common::shared_spec("hanging-corners.json");
+    let base = common::example_spec("hanging-corners.json");
     let lowest: Vec<f64> = [20u32, 40, 80]
         .iter()
         .map(|&n| {

@@ -1,4 +1,4 @@
-//! Free fall (`shared/scenes/free-fall.json`): with no pins, no drag and no
+//! Free fall (`examples/scenes/free-fall.json`): with no pins, no drag and no
 //! damping, internal forces vanish for a rigidly translating cloth, so
 //! backward Euler's discrete law `x_n = x0 + v0 t + g t (t + h) / 2` must
 //! hold for the centre of mass to round-off, and no edge may change length.
@@ -10,7 +10,7 @@ use drapery_sim::spec::TimeStepping;
 
 #[test]
 fn free_fall_matches_backward_euler_law_and_cloth_does_not_deform() {
-    let scene = common::shared_scene("free-fall.json");
+    let scene = common::example_scene("free-fall.json");
     let TimeStepping::Fixed { substeps } = scene.solver.stepping else {
         panic!("free-fall uses a fixed step");
     };

@@ -264,9 +264,9 @@ pub fn encode_positions(x: &[Vec3]) -> Vec<u8> {
 /// contact (`contact_particles`) so it can highlight them.
 fn frame_stats_json(sim: &Simulation, stats: &FrameStats) -> String {
     let mut v = serde_json::to_value(stats).unwrap_or_default();
-    if let Some(stage) = sim.collision() {
-        let poses: Vec<_> = stage
-            .colliders()
+    if !sim.obstacles().is_empty() {
+        let poses: Vec<_> = sim
+            .obstacles()
             .iter()
             .map(|c| {
                 let p = c.trajectory.pose(stats.time);
@@ -278,7 +278,7 @@ fn frame_stats_json(sim: &Simulation, stats: &FrameStats) -> String {
             })
             .collect();
         v["obstacles"] = json!(poses);
-        let touching: Vec<u32> = stage.contacts().iter().map(|c| c.particle).collect();
+        let touching: Vec<u32> = sim.contacts().iter().map(|c| c.particle).collect();
         v["contact_particles"] = json!(touching);
     }
     v.to_string()

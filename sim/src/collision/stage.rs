@@ -1,9 +1,11 @@
-//! The collision stage of a step (method.md §3, §4): before the solve it
-//! turns the contact set, and the particles whose predicted path crosses an
-//! obstacle's offset surface, into constraints; after the solve it tests
-//! the path actually taken (asking for the step to be redone with the new
-//! contacts if one crossed), then releases contacts whose constraint force
-//! turned adhesive and moves the rest between static and kinetic friction.
+//! The collision stages of a step (method.md §3, §4). Before the solve
+//! ([`CollisionStage::prepare`]) the contact set, and the particles whose
+//! predicted path crosses an obstacle's offset surface, become
+//! constraints; after the solve ([`CollisionStage::resolve`]) the path
+//! actually taken is tested: a crossing asks for the step to be redone
+//! with the new contacts, otherwise the step is accepted, contacts whose
+//! constraint force turned adhesive are released and the rest move
+//! between static and kinetic friction.
 //!
 //! Every test runs in the obstacle's own frame: a particle's start is
 //! mapped by the inverse pose at the step's start, its end by the inverse
@@ -18,11 +20,10 @@
 use super::aabb::Aabb;
 use super::collider::Collider;
 use super::contact::{self, Contact, Plan};
-use super::pose::Pose;
+use super::obstacles::Obstacles;
+use super::scratch::CollisionScratch;
 use crate::math::{Real, Vec3};
-use crate::mesh::MeshError;
 use crate::solver::Constraints;
-use crate::spec::Obstacle;
 
 /// A crossing found after the solve that ends less than this fraction of
 /// the offset inside the offset surface is left for the next step's
@@ -40,102 +41,136 @@ const ON_SURFACE: Real = 1e-3;
 /// being released and re-made every step on solver noise.
 const RELEASE_HYSTERESIS: Real = 0.05;
 
-/// Most a particle is pushed out along the surface normal in one step, as
-/// a fraction of the particle spacing: a deep initial overlap is resolved
-/// over a few steps instead of in one jolt that would overstretch the
-/// springs to its free neighbours.
-const MAX_PUSH: Real = 0.1;
-
-/// Counters of one step.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct CollisionCounters {
-    /// Hierarchy nodes visited.
-    pub nodes: u64,
-    /// Contacts made.
-    pub new: usize,
-    /// Contacts released.
-    pub released: usize,
-    /// Solves redone because a particle crossed a surface.
-    pub redone: usize,
+/// What the collision stage reads of the step being taken.
+#[derive(Debug, Clone, Copy)]
+pub struct StepFrame<'a> {
+    /// Lumped masses.
+    pub mass: &'a [Real],
+    /// Particles held by pins: never in contact.
+    pub pinned: &'a [bool],
+    /// The step's start time.
+    pub time: Real,
+    /// The step's size.
+    pub h: Real,
 }
 
-/// The obstacles and the contact set of a running simulation.
+/// After the solve: accept the step, or redo it with the contacts just
+/// added.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Contacts were released or switched friction; the step stands.
+    Accept,
+    /// A particle crossed a surface; the new contacts are in the set and
+    /// the step must be solved again from its start.
+    Redo,
+}
+
+/// The collision stage at work on one step: the obstacles, the run's
+/// contact set (sorted by particle, then obstacle) and the stage's
+/// scratch.
 #[derive(Debug)]
-pub struct CollisionStage {
-    colliders: Vec<Collider>,
-    contacts: Vec<Contact>,
-    /// This step's geometry of each contact (parallel to `contacts`).
-    plans: Vec<Plan>,
-    /// This step's poses (start, end) and the box each obstacle sweeps
-    /// over the step.
-    poses: Vec<(Pose, Pose)>,
-    swept: Vec<Aabb>,
-    /// Predicted end positions.
-    predicted: Vec<Vec3>,
-    /// Largest push-out per step (see [`MAX_PUSH`]).
-    max_push: Real,
-    /// Counters since the last [`Self::take_counters`].
-    counters: CollisionCounters,
+pub struct CollisionStage<'a> {
+    /// The scene's obstacles.
+    pub obstacles: &'a Obstacles,
+    /// The contact set, part of the run's state.
+    pub contacts: &'a mut Vec<Contact>,
+    /// Per-step buffers and counters.
+    pub scratch: &'a mut CollisionScratch,
 }
 
-impl CollisionStage {
-    /// The stage for `obstacles`, or `None` when there are none.
-    pub fn new(obstacles: &[Obstacle], spacing: Real) -> Result<Option<Self>, (usize, MeshError)> {
-        if obstacles.is_empty() {
-            return Ok(None);
+impl CollisionStage<'_> {
+    /// Before the solve of a step from `x`, `v`: finds new contacts along
+    /// the predicted path `x + h (v + dv_guess)` and among particles
+    /// already inside, then writes every contact's `S`, `z`, `y` and
+    /// kinetic friction into `c` (pinned particles are left alone).
+    pub fn prepare(
+        &mut self,
+        step: &StepFrame<'_>,
+        x: &[Vec3],
+        v: &[Vec3],
+        dv_guess: &[Vec3],
+        c: &mut Constraints,
+    ) {
+        let h = step.h;
+        let mut predicted = std::mem::take(&mut self.scratch.predicted);
+        predicted.clear();
+        predicted.extend((0..x.len()).map(|i| x[i] + (v[i] + dv_guess[i]) * h));
+        self.set_poses(step.time, h);
+        self.crossings(x, &predicted, step.pinned, true, |_, _, _| true);
+        self.scratch.predicted = predicted;
+        self.add_found();
+
+        let mut plans = std::mem::take(&mut self.scratch.plans);
+        plans.clear();
+        for ct in self.contacts.iter() {
+            let i = ct.particle as usize;
+            let (plan, nodes) = self.plan(ct.obstacle as usize, &x[i], &v[i], h);
+            self.scratch.counters.nodes += nodes;
+            plans.push(plan);
         }
-        let colliders = obstacles
-            .iter()
-            .enumerate()
-            .map(|(k, o)| Collider::new(o, spacing).map_err(|e| (k, e)))
-            .collect::<Result<Vec<_>, _>>()?;
-        for (k, c) in colliders.iter().enumerate() {
-            tracing::debug!(
-                obstacle = k,
-                offset = c.surface.offset(),
-                "collision offset"
-            );
+        self.scratch.plans = plans;
+        let mut group = std::mem::take(&mut self.scratch.group);
+        let mut k = 0;
+        while k < self.contacts.len() {
+            let i = self.contacts[k].particle as usize;
+            group.clear();
+            while k < self.contacts.len() && self.contacts[k].particle as usize == i {
+                group.push((self.contacts[k], self.scratch.plans[k]));
+                k += 1;
+            }
+            if step.pinned[i] {
+                continue;
+            }
+            contact::constrain(i, &group, &x[i], &v[i], h, self.obstacles.max_push, c);
+            for (ct, plan) in &group {
+                let mu = self.obstacles.colliders()[ct.obstacle as usize].friction;
+                c.impulse[i] += contact::kinetic_impulse(ct, plan, mu, step.mass[i], h);
+            }
         }
-        let n = colliders.len();
-        Ok(Some(Self {
-            colliders,
-            contacts: Vec::new(),
-            plans: Vec::new(),
-            poses: vec![(Pose::identity(), Pose::identity()); n],
-            swept: vec![Aabb::empty(); n],
-            predicted: Vec::new(),
-            max_push: MAX_PUSH * spacing,
-            counters: CollisionCounters::default(),
-        }))
+        self.scratch.group = group;
     }
 
-    /// The obstacles.
-    pub fn colliders(&self) -> &[Collider] {
-        &self.colliders
-    }
-
-    /// The contact set (sorted by particle, then obstacle).
-    pub fn contacts(&self) -> &[Contact] {
-        &self.contacts
-    }
-
-    /// Replaces the contact set (restoring a backup).
-    pub fn set_contacts(&mut self, contacts: Vec<Contact>) {
-        self.contacts = contacts;
-    }
-
-    /// Counters accumulated since the last call, reset.
-    pub fn take_counters(&mut self) -> CollisionCounters {
-        std::mem::take(&mut self.counters)
+    /// After the solve: tests the path actually taken `x0 -> x1` of every
+    /// particle not already in contact. A crossing that ends deeper than
+    /// [`SHALLOW`] offsets inside, or passes through and out again
+    /// (tunnelling), becomes a contact; if `redo_allowed` the step is then
+    /// to be redone ([`Verdict::Redo`]). Otherwise the step is accepted:
+    /// with `lambda(i)` the constraint impulse on particle `i`
+    /// (`A dv - b`) and `v1` the new velocities, contacts are released or
+    /// switch friction ([`Self::release`]), and the crossings take effect
+    /// from the next step.
+    #[allow(clippy::too_many_arguments)]
+    pub fn resolve(
+        &mut self,
+        step: &StepFrame<'_>,
+        x0: &[Vec3],
+        x1: &[Vec3],
+        v1: &[Vec3],
+        gravity: Real,
+        redo_allowed: bool,
+        lambda: impl Fn(usize) -> Vec3,
+    ) -> Verdict {
+        self.crossings(x0, x1, step.pinned, false, |c, end, nodes| {
+            let d = c.surface.project(end, nodes).distance;
+            d >= 0.0 || d < -SHALLOW * c.surface.offset()
+        });
+        if !self.scratch.found.is_empty() && redo_allowed {
+            self.add_found();
+            self.scratch.counters.redone += 1;
+            return Verdict::Redo;
+        }
+        self.release(v1, step.mass, gravity, step.h, lambda);
+        self.add_found();
+        Verdict::Accept
     }
 
     fn set_poses(&mut self, t: Real, h: Real) {
-        for (k, c) in self.colliders.iter().enumerate() {
+        for (k, c) in self.obstacles.colliders().iter().enumerate() {
             if !c.is_static {
-                self.poses[k] = (c.trajectory.pose(t), c.trajectory.pose(t + h));
+                self.scratch.poses[k] = (c.trajectory.pose(t), c.trajectory.pose(t + h));
             }
-            let (p0, p1) = &self.poses[k];
-            self.swept[k] = c.world_bounds(p0).union(&c.world_bounds(p1));
+            let (p0, p1) = &self.scratch.poses[k];
+            self.scratch.swept[k] = c.world_bounds(p0).union(&c.world_bounds(p1));
         }
     }
 
@@ -149,8 +184,8 @@ impl CollisionStage {
     /// The offset-surface point nearest to `x` (at the step's start) on
     /// obstacle `k`, and how it moves over the step.
     fn plan(&self, k: usize, x: &Vec3, v: &Vec3, h: Real) -> (Plan, u64) {
-        let c = &self.colliders[k];
-        let (p0, p1) = &self.poses[k];
+        let c = &self.obstacles.colliders()[k];
+        let (p0, p1) = &self.scratch.poses[k];
         let mut nodes = 0;
         let local = p0.inverse_transform_point(&(*x).into());
         let pr = c.surface.project(&local.coords, &mut nodes);
@@ -169,9 +204,10 @@ impl CollisionStage {
     }
 
     /// Tests every free particle's path `a[i] -> b[i]` against every
-    /// obstacle whose swept box meets the paths' box. Returns `(particle, obstacle)` for each crossing
-    /// that `accept(obstacle, end)` keeps, where `end` is the path's end
-    /// in the obstacle's frame.
+    /// obstacle whose swept box meets the paths' box, leaving in
+    /// `scratch.found` each `(particle, obstacle)` crossing that
+    /// `accept(obstacle, end)` keeps, where `end` is the path's end in the
+    /// obstacle's frame.
     fn crossings(
         &mut self,
         a: &[Vec3],
@@ -179,17 +215,17 @@ impl CollisionStage {
         pinned: &[bool],
         inside_start: bool,
         mut accept: impl FnMut(&Collider, &Vec3, &mut u64) -> bool,
-    ) -> Vec<(u32, u32)> {
-        let mut found = Vec::new();
+    ) {
+        let mut found = std::mem::take(&mut self.scratch.found);
+        found.clear();
         // The paths' box: an obstacle sweeping clear of it is skipped whole.
         let cloth = Aabb::of_points(a).union(&Aabb::of_points(b));
-        for k in 0..self.colliders.len() {
-            if !self.swept[k].overlaps(&cloth) {
+        for (k, c) in self.obstacles.colliders().iter().enumerate() {
+            let world = self.scratch.swept[k];
+            if !world.overlaps(&cloth) {
                 continue;
             }
-            let c = &self.colliders[k];
-            let (p0, p1) = self.poses[k];
-            let world = self.swept[k];
+            let (p0, p1) = self.scratch.poses[k];
             let local_bounds = c.surface.bounds();
             for i in 0..a.len() {
                 if pinned[i]
@@ -214,17 +250,19 @@ impl CollisionStage {
                         && c.surface.project(&la, &mut nodes).distance
                             < -ON_SURFACE * c.surface.offset() - 1e-12
                 };
-                self.counters.nodes += nodes;
+                self.scratch.counters.nodes += nodes;
                 if keep {
                     found.push((i as u32, k as u32));
                 }
             }
         }
-        found
+        self.scratch.found = found;
     }
 
-    fn add_contacts(&mut self, new: &[(u32, u32)]) {
-        self.counters.new += new.len();
+    /// Adds the crossings of the last test as new contacts.
+    fn add_found(&mut self) {
+        let new = &self.scratch.found;
+        self.scratch.counters.new += new.len();
         self.contacts
             .extend(new.iter().map(|&(particle, obstacle)| Contact {
                 particle,
@@ -236,90 +274,12 @@ impl CollisionStage {
         self.contacts.dedup_by_key(|c| (c.particle, c.obstacle));
     }
 
-    /// Before the solve of a step from `t` to `t + h`: finds new contacts
-    /// along the predicted path `x + h (v + dv_guess)` and among particles
-    /// already inside, then writes every contact's `S`, `z`, `y` and
-    /// kinetic friction into `c` (pinned particles are left alone).
-    #[allow(clippy::too_many_arguments)]
-    pub fn prepare(
-        &mut self,
-        x: &[Vec3],
-        v: &[Vec3],
-        dv_guess: &[Vec3],
-        mass: &[Real],
-        t: Real,
-        h: Real,
-        pinned: &[bool],
-        c: &mut Constraints,
-    ) {
-        let mut predicted = std::mem::take(&mut self.predicted);
-        predicted.clear();
-        predicted.extend((0..x.len()).map(|i| x[i] + (v[i] + dv_guess[i]) * h));
-        self.set_poses(t, h);
-        let new = self.crossings(x, &predicted, pinned, true, |_, _, _| true);
-        self.predicted = predicted;
-        self.add_contacts(&new);
-
-        self.plans.clear();
-        for k in 0..self.contacts.len() {
-            let ct = self.contacts[k];
-            let i = ct.particle as usize;
-            let (plan, nodes) = self.plan(ct.obstacle as usize, &x[i], &v[i], h);
-            self.counters.nodes += nodes;
-            self.plans.push(plan);
-        }
-        let mut group: Vec<(Contact, Plan)> = Vec::with_capacity(4);
-        let mut k = 0;
-        while k < self.contacts.len() {
-            let i = self.contacts[k].particle as usize;
-            group.clear();
-            while k < self.contacts.len() && self.contacts[k].particle as usize == i {
-                group.push((self.contacts[k], self.plans[k]));
-                k += 1;
-            }
-            if pinned[i] {
-                continue;
-            }
-            contact::constrain(i, &group, &x[i], &v[i], h, self.max_push, c);
-            for (ct, plan) in &group {
-                let mu = self.colliders[ct.obstacle as usize].friction;
-                c.impulse[i] += contact::kinetic_impulse(ct, plan, mu, mass[i], h);
-            }
-        }
-    }
-
-    /// After the solve: tests the path actually taken `x0 -> x1` of every
-    /// particle not already in contact, returning the crossings that end
-    /// deeper than [`SHALLOW`] offsets inside or pass through and out again
-    /// (tunnelling): the step should be redone with them as contacts
-    /// ([`Self::redo_with`]).
-    pub fn check(&mut self, x0: &[Vec3], x1: &[Vec3], pinned: &[bool]) -> Vec<(u32, u32)> {
-        self.crossings(x0, x1, pinned, false, |c, end, nodes| {
-            let d = c.surface.project(end, nodes).distance;
-            d >= 0.0 || d < -SHALLOW * c.surface.offset()
-        })
-    }
-
-    /// Adds the crossings [`Self::check`] found before the step is redone.
-    pub fn redo_with(&mut self, crossings: &[(u32, u32)]) {
-        self.add_contacts(crossings);
-        self.counters.redone += 1;
-    }
-
-    /// Adds crossings found after the last allowed redo: they take effect
-    /// from the next step (call after [`Self::update`]).
-    pub fn add_late(&mut self, crossings: &[(u32, u32)]) {
-        self.add_contacts(crossings);
-    }
-
-    /// After an accepted step: with `lambda(i)` the constraint impulse on
-    /// particle `i` (`A dv - b`), releases contacts whose normal impulse
-    /// pulls the particle in (Baraff and Witkin), and switches friction:
-    /// static while the tangential impulse holding it stays inside the cone
-    /// `μ λn`,
-    /// kinetic beyond; back to static when friction could stop the
-    /// remaining slide within one step.
-    pub fn update(
+    /// Releases contacts whose normal impulse pulls the particle in (Baraff
+    /// and Witkin), and switches friction: static while the tangential
+    /// impulse holding it stays inside the cone `μ λn`, kinetic beyond;
+    /// back to static when friction could stop the remaining slide within
+    /// one step.
+    fn release(
         &mut self,
         v1: &[Vec3],
         mass: &[Real],
@@ -327,20 +287,24 @@ impl CollisionStage {
         h: Real,
         lambda: impl Fn(usize) -> Vec3,
     ) {
-        let mut keep = vec![true; self.contacts.len()];
-        for (k, ct) in self.contacts.iter_mut().enumerate() {
-            let i = ct.particle as usize;
-            let Some(plan) = self.plans.get(k) else {
-                continue;
+        let before = self.contacts.len();
+        let plans = &self.scratch.plans;
+        let colliders = self.obstacles.colliders();
+        let mut k = 0;
+        self.contacts.retain_mut(|ct| {
+            let plan = plans.get(k);
+            k += 1;
+            let Some(plan) = plan else {
+                return true;
             };
+            let i = ct.particle as usize;
             let l = lambda(i);
             let ln = plan.normal.dot(&l);
             if ln < -RELEASE_HYSTERESIS * mass[i] * gravity * h {
-                keep[k] = false;
-                continue;
+                return false;
             }
             ct.normal_force = ln.max(0.0) / h;
-            let mu = self.colliders[ct.obstacle as usize].friction;
+            let mu = colliders[ct.obstacle as usize].friction;
             if mu <= 0.0 {
                 ct.sticking = false;
             } else if ct.sticking {
@@ -353,39 +317,17 @@ impl CollisionStage {
                 let slide = (rel - plan.normal * plan.normal.dot(&rel)).norm();
                 ct.sticking = mass[i] * slide <= mu * ln;
             }
-        }
-        let before = self.contacts.len();
-        let mut it = keep.iter();
-        self.contacts.retain(|_| *it.next().unwrap_or(&true));
-        self.counters.released += before - self.contacts.len();
-        self.plans.clear();
-    }
-
-    /// The smallest signed distance from a particle to a true obstacle
-    /// surface at time `t` (negative inside).
-    pub fn min_true_distance(&self, x: &[Vec3], t: Real) -> Real {
-        let mut best = Real::INFINITY;
-        for c in &self.colliders {
-            let pose = c.trajectory.pose(t);
-            let bounds = c.surface.bounds();
-            for p in x {
-                let l = pose.inverse_transform_point(&(*p).into()).coords;
-                // The bounds hold the true solid: a lower bound on distance.
-                if bounds.distance_squared(&l).sqrt() >= best {
-                    continue;
-                }
-                let mut nodes = 0;
-                best = best.min(c.surface.true_distance(&l, &mut nodes));
-            }
-        }
-        best
+            true
+        });
+        self.scratch.counters.released += before - self.contacts.len();
+        self.scratch.plans.clear();
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spec::{Motion, Sphere};
+    use crate::spec::{Motion, Obstacle, Sphere};
 
     fn sphere(velocity: [Real; 3]) -> Obstacle {
         Obstacle {
@@ -415,13 +357,26 @@ mod tests {
         // particle moves from (0, 0, 1) to (0, 0, -1) relative to the
         // centre: a crossing the test sees although neither end is inside.
         let h = 0.01;
-        let mut stage = CollisionStage::new(&[sphere([0.0, 0.0, 200.0])], 0.1)
+        let step = StepFrame {
+            mass: &[1.0],
+            pinned: &[false],
+            time: 0.0,
+            h,
+        };
+        let obstacles = Obstacles::new(&[sphere([0.0, 0.0, 200.0])], 0.1)
             .expect("builds")
-            .expect("stage");
+            .expect("obstacles");
+        let mut contacts = Vec::new();
+        let mut scratch = CollisionScratch::new(1);
         let (x, v) = (vec![Vec3::zeros()], vec![Vec3::zeros()]);
         let mut c = Constraints::free(1);
-        stage.prepare(&x, &v, &v, &[1.0], 0.0, h, &[false], &mut c);
-        assert_eq!(stage.contacts().len(), 1);
+        CollisionStage {
+            obstacles: &obstacles,
+            contacts: &mut contacts,
+            scratch: &mut scratch,
+        }
+        .prepare(&step, &x, &v, &v, &mut c);
+        assert_eq!(contacts.len(), 1);
         assert_eq!(c.filter[0].blocked(), 1);
         // Carried ahead of the sphere: the step ends on the offset surface
         // above its top (the 0.89 m gap at the start closed by velocity).
@@ -432,12 +387,19 @@ mod tests {
 
         // The same particle next to a sphere moving sideways past it is
         // left alone, and a far obstacle is culled before any test.
-        let mut stage = CollisionStage::new(&[sphere([200.0, 0.0, 0.0])], 0.1)
+        let obstacles = Obstacles::new(&[sphere([200.0, 0.0, 0.0])], 0.1)
             .expect("builds")
-            .expect("stage");
+            .expect("obstacles");
+        let mut contacts = Vec::new();
+        let mut scratch = CollisionScratch::new(1);
         let mut c = Constraints::free(1);
-        stage.prepare(&x, &v, &v, &[1.0], 0.0, h, &[false], &mut c);
-        assert!(stage.contacts().is_empty() && c.is_free());
-        assert_eq!(stage.take_counters().nodes, 0);
+        CollisionStage {
+            obstacles: &obstacles,
+            contacts: &mut contacts,
+            scratch: &mut scratch,
+        }
+        .prepare(&step, &x, &v, &v, &mut c);
+        assert!(contacts.is_empty() && c.is_free());
+        assert_eq!(scratch.take_counters().nodes, 0);
     }
 }

@@ -1,18 +1,33 @@
 //! The driver: builds a simulation from a validated scene and steps it to
-//! frames, with statistics, progress, cancellation and non-finite detection.
+//! frames, with statistics, progress, cancellation and checkpoints.
 //!
 //! ```text
-//! Scene -> Simulation::new -> (advance_frame)* -> FrameStats per frame -> RunStats
+//! Scene ─World::new─> World (grid, forces, pins, obstacles; fixed)
+//!                       │
+//!   RunState (the state; a checkpoint) ─┬─ driver: frames -> steps (fixed,
+//!   Workspace (buffers)  ───────────────┘   subdivided, adaptive)
+//!                                            └─ step: the table of stages
+//!                                                 -> FrameStats -> RunStats
 //! ```
 
-mod checkpoint;
 mod control;
+mod driver;
 mod error;
+mod pins;
 mod simulation;
+mod stage;
+mod state;
 mod stats;
+mod step;
+mod workspace;
+mod world;
 
-pub use checkpoint::Checkpoint;
 pub use control::{Control, Progress};
 pub use error::SimError;
+pub use pins::Pins;
 pub use simulation::Simulation;
+pub use stage::{Stage, StageClock, StageTimes};
+pub use state::{Checkpoint, RunState};
 pub use stats::{FrameStats, RunStats, StatsRecorder};
+pub use step::{MAX_REDOS, StepReport};
+pub use world::World;

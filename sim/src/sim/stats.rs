@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::solver::StageTimes;
+use super::stage::StageTimes;
 
 /// One output frame's statistics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

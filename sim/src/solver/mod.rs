@@ -11,24 +11,28 @@
 //! - [`System`]: assembly of `A = M - h D - h² K` and
 //!   `b = h (f0 + K (h v0 + y))`.
 //! - [`Constraints`]: per-particle filters `S_i`, targets `z_i`, position
-//!   corrections `y_i` (pins now; contacts use the same seam).
+//!   corrections `y_i` (pins and contacts fill the same arrays).
 //! - [`mpcg`]: the modified preconditioned conjugate gradient (Baraff &
 //!   Witkin 1998 §5) behind the [`Preconditioner`] trait.
-//! - [`Integrator`]: one step, with its reusable workspace.
+//! - [`Integrator`]: the system, its preconditioner and the solver's
+//!   scratch, with one method per stage of the step; [`ClothState`] is what
+//!   a step advances.
 
 mod assemble;
 mod banded;
 mod bsr;
 mod constraints;
+mod integrator;
 mod lines;
 pub mod mpcg;
 mod precond;
-mod step;
+mod state;
 
 pub use assemble::{AssemblyInput, System};
 pub use bsr::BlockCsr;
 pub use constraints::{Constraints, Filter};
+pub use integrator::{Integrator, Physics, StepError, update};
 pub use lines::AlternatingLines;
 pub use mpcg::{MpcgOptions, MpcgWorkspace, Problem, SolveReport, SolveStatus};
-pub use precond::{BlockJacobi, Jacobi, Preconditioner, make_preconditioner};
-pub use step::{ClothState, Integrator, Physics, StageTimes, StepError, StepReport};
+pub use precond::{BlockJacobi, Jacobi, Preconditioner};
+pub use state::ClothState;

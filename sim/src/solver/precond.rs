@@ -7,9 +7,7 @@
 
 use super::bsr::BlockCsr;
 use super::constraints::Filter;
-use super::lines::AlternatingLines;
 use crate::math::{Mat3, Vec3};
-use crate::spec::PreconditionerKind;
 
 /// `out ≈ A⁻¹ r` for a symmetric positive definite `A`.
 pub trait Preconditioner: Send + std::fmt::Debug {
@@ -20,19 +18,6 @@ pub trait Preconditioner: Send + std::fmt::Debug {
     /// Applies the (symmetric positive definite) approximate inverse of the
     /// filtered matrix to `r`; `a` and `filter` are the ones of `update`.
     fn apply(&self, a: &BlockCsr, filter: &[Filter], r: &[Vec3], out: &mut [Vec3]);
-}
-
-/// The preconditioner a spec asks for, for an `nu x nv` grid.
-pub fn make_preconditioner(
-    kind: PreconditionerKind,
-    nu: usize,
-    nv: usize,
-) -> Box<dyn Preconditioner> {
-    match kind {
-        PreconditionerKind::Jacobi => Box::<Jacobi>::default(),
-        PreconditionerKind::BlockJacobi => Box::<BlockJacobi>::default(),
-        PreconditionerKind::Lines => Box::new(AlternatingLines::new(nu, nv)),
-    }
 }
 
 /// Inverse of the scalar diagonal of `A` (the paper's choice).

@@ -10,22 +10,24 @@ pub fn scene_from_json(json: &str) -> Scene {
     spec.validate(&Limits::default()).expect("spec validates")
 }
 
-pub fn shared_path(name: &str) -> std::path::PathBuf {
+/// The project's own copy of a canonical scene (`examples/scenes/`): the
+/// tests need nothing from outside the repository.
+pub fn example_path(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/scenes")
+        .join("../examples/scenes")
         .join(name)
 }
 
-pub fn shared_spec(name: &str) -> Spec {
-    let path = shared_path(name);
+pub fn example_spec(name: &str) -> Spec {
+    let path = example_path(name);
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    serde_json::from_str(&text).expect("shared scene parses")
+    serde_json::from_str(&text).expect("example scene parses")
 }
 
-pub fn shared_scene(name: &str) -> Scene {
-    shared_spec(name)
+pub fn example_scene(name: &str) -> Scene {
+    example_spec(name)
         .validate(&Limits::default())
-        .expect("shared scene validates")
+        .expect("example scene validates")
 }
 
 /// Runs to the end, returning positions at every frame.

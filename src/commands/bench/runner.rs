@@ -1,21 +1,8 @@
-//! One simulation run for the studies: its statistics, optionally every
-//! frame's positions, and how it ended.
+//! The studies' glue: spec files in, one run through the shared runner
+//! (`drapery_studies::runner`), medians out.
 
-use drapery_sim::math::Vec3;
-use drapery_sim::sim::{Control, RunStats, SimError, Simulation};
 use drapery_sim::spec::{Limits, Scene, Spec};
-
-/// What one run produced.
-#[derive(Debug)]
-pub struct Outcome {
-    /// Statistics of the frames that were finished, `wall_seconds` for the
-    /// whole run; `finite: false` if a step produced NaN or infinity.
-    pub stats: RunStats,
-    /// Positions of every frame (frame 0 first), when asked for.
-    pub frames: Vec<Vec<Vec3>>,
-    /// Why the run stopped early, if it did.
-    pub error: Option<SimError>,
-}
+use drapery_studies::runner::{self, Outcome, RunOptions};
 
 /// Reads and parses a spec file (errors name the file and the field);
 /// validation comes per run, with each run's settings.
@@ -30,22 +17,16 @@ pub fn scene(spec: &Spec, what: &str) -> anyhow::Result<Scene> {
         .map_err(|e| anyhow::anyhow!("{what}: {e}"))
 }
 
-/// Runs `scene` to the end (or its first error), keeping each frame's
-/// positions if `capture`.
+/// Runs `scene` from rest to the end (or its first error), keeping each
+/// frame's positions if `capture`.
 pub fn simulate(scene: &Scene, capture: bool) -> anyhow::Result<Outcome> {
-    let mut sim = Simulation::new(scene)?;
-    let mut frames = Vec::new();
-    let (stats, result) = sim.run_recorded(&Control::default(), |s, _| {
-        if capture {
-            frames.push(s.state().x.clone());
-        }
-        Ok::<(), String>(())
-    });
-    Ok(Outcome {
-        stats,
-        frames,
-        error: result.err(),
-    })
+    Ok(runner::simulate(
+        scene,
+        RunOptions {
+            capture,
+            ..RunOptions::default()
+        },
+    )?)
 }
 
 /// The median of `values` (the mean of the middle two for an even count).

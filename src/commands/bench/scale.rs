@@ -10,13 +10,13 @@
 
 use anyhow::Context;
 use drapery_sim::spec::{PinEntry, Spec};
-use std::fmt::Write as _;
 use std::process::ExitCode;
 
 use super::fit::power_law;
 use super::peak_rss_mib;
 use super::plot::{Series, Style, loglog};
 use super::runner;
+use super::write_csv;
 use crate::cli::ScaleArgs;
 
 /// The default scene: `examples/scenes/sphere-drape-30.json`.
@@ -95,7 +95,7 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
             .map(|r| (r.particles as f64, r.seconds_per_step()))
             .collect::<Vec<_>>(),
     );
-    std::fs::write(args.out.join("scale.csv"), csv(&rows))?;
+    write_csv(&args.out.join("scale.csv"), rows.iter().map(CsvRow::from))?;
     let mut series = vec![Series {
         name: "time per step (measured)".into(),
         points: rows
@@ -157,27 +157,36 @@ fn resized(base: &Spec, n: u32, duration: f64) -> Spec {
     spec
 }
 
-fn csv(rows: &[Row]) -> String {
-    let mut out = String::from(
-        "n,particles,steps,sim_seconds,wall_seconds,seconds_per_step,seconds_per_sim_second,cg_iterations_per_step,collision_fraction,peak_rss_mib\n",
-    );
-    for r in rows {
-        let _ = writeln!(
-            out,
-            "{},{},{},{},{:.6},{:.6e},{:.6},{:.3},{:.5},{}",
-            r.n,
-            r.particles,
-            r.steps,
-            r.sim_seconds,
-            r.wall_seconds,
-            r.seconds_per_step(),
-            r.wall_seconds / r.sim_seconds.max(1e-12),
-            r.cg_iterations as f64 / r.steps.max(1) as f64,
-            r.collision_fraction,
-            r.peak_rss_mib.map_or(String::new(), |m| format!("{m:.1}")),
-        );
+/// A line of `scale.csv`.
+#[derive(serde::Serialize)]
+struct CsvRow {
+    n: u32,
+    particles: usize,
+    steps: usize,
+    sim_seconds: f64,
+    wall_seconds: f64,
+    seconds_per_step: f64,
+    seconds_per_sim_second: f64,
+    cg_iterations_per_step: f64,
+    collision_fraction: f64,
+    peak_rss_mib: Option<f64>,
+}
+
+impl From<&Row> for CsvRow {
+    fn from(r: &Row) -> Self {
+        Self {
+            n: r.n,
+            particles: r.particles,
+            steps: r.steps,
+            sim_seconds: r.sim_seconds,
+            wall_seconds: r.wall_seconds,
+            seconds_per_step: r.seconds_per_step(),
+            seconds_per_sim_second: r.wall_seconds / r.sim_seconds.max(1e-12),
+            cg_iterations_per_step: r.cg_iterations as f64 / r.steps.max(1) as f64,
+            collision_fraction: r.collision_fraction,
+            peak_rss_mib: r.peak_rss_mib,
+        }
     }
-    out
 }
 
 #[cfg(test)]

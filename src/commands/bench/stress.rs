@@ -1,12 +1,12 @@
-//! `drapery bench stress`: the core's stress suite (`drapery_sim::stress`)
+//! `drapery bench stress`: the stress suite (`drapery_studies::stress`)
 //! at `--size`, one line per case, `stress.csv`, exit 1 if any case fails.
 
-use std::fmt::Write as _;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use drapery_sim::stress::{self, Outcome};
+use drapery_studies::stress::{self, Outcome};
 
+use super::write_csv;
 use crate::cli::StressArgs;
 
 /// Runs the suite.
@@ -51,7 +51,10 @@ pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
         );
         outcomes.push(o);
     }
-    std::fs::write(args.out.join("stress.csv"), csv(&outcomes))?;
+    write_csv(
+        &args.out.join("stress.csv"),
+        outcomes.iter().map(CsvRow::from),
+    )?;
     let failed = outcomes.iter().filter(|o| !o.pass()).count();
     eprintln!(
         "{} of {} cases passed; wrote {}/stress.csv",
@@ -79,28 +82,36 @@ fn slug(name: &str) -> String {
     out.trim_matches('-').to_owned()
 }
 
-fn csv(outcomes: &[Outcome]) -> String {
-    let mut out = String::from(
-        "case,dt,finite,max_stretch,min_signed_distance,cg_iterations_max,unconverged_solves,wall_seconds,pass,failures\n",
-    );
-    for o in outcomes {
-        let _ = writeln!(
-            out,
-            "{},{:.6e},{},{:.6},{},{},{},{:.4},{},\"{}\"",
-            o.case,
-            o.dt,
-            o.finite,
-            o.max_stretch,
-            o.min_signed_distance
-                .map_or(String::new(), |d| format!("{d:.6e}")),
-            o.cg_iterations_max,
-            o.unconverged_solves,
-            o.wall_seconds,
-            o.pass(),
-            o.failures.join("; ").replace('"', "'")
-        );
+/// A line of `stress.csv`.
+#[derive(serde::Serialize)]
+struct CsvRow<'a> {
+    case: &'a str,
+    dt: f64,
+    finite: bool,
+    max_stretch: f64,
+    min_signed_distance: Option<f64>,
+    cg_iterations_max: usize,
+    unconverged_solves: usize,
+    wall_seconds: f64,
+    pass: bool,
+    failures: String,
+}
+
+impl<'a> From<&'a Outcome> for CsvRow<'a> {
+    fn from(o: &'a Outcome) -> Self {
+        Self {
+            case: &o.case,
+            dt: o.dt,
+            finite: o.finite,
+            max_stretch: o.max_stretch,
+            min_signed_distance: o.min_signed_distance,
+            cg_iterations_max: o.cg_iterations_max,
+            unconverged_solves: o.unconverged_solves,
+            wall_seconds: o.wall_seconds,
+            pass: o.pass(),
+            failures: o.failures.join("; "),
+        }
     }
-    out
 }
 
 #[cfg(test)]

@@ -1,11 +1,11 @@
-//! The stress suite (`drapery_sim::stress`, also `drapery bench stress`)
+//! The stress suite (`drapery_studies::stress`, also `drapery bench stress`)
 //! at 12 x 12 particles: every case must stay finite, keep stretch under
 //! 10 %, keep particles within 1 mm of the outside of every true surface,
 //! and converge every solve (the checks are in `stress::run`).
 //!
 //! One test per family, so the harness runs families in parallel.
 
-use drapery_sim::stress::{self, Case};
+use drapery_studies::stress::{self, Case};
 
 /// Small enough for the suite (all cases take ~7 s in an optimised build),
 /// large enough that every obstacle is finer than the grid and the cloth

@@ -5,9 +5,9 @@
 //! under its bound at every frame, keep every particle within 1 mm of the
 //! outside of every obstacle's true surface (method.md §3: the offset
 //! surface is where contact acts, the true surface is what must not be
-//! crossed), and converge every solve within the iteration cap (§2). The
-//! suite lives in the core so that `drapery bench stress` (full size) and
-//! `cargo test` (small size) run the very same cases.
+//! crossed), and converge every solve within the iteration cap (§2).
+//! `drapery bench stress` (full size) and `cargo test` (small size) run the
+//! very same cases through the studies' [`crate::runner`].
 
 mod cases;
 mod crumple;
@@ -15,8 +15,9 @@ mod crumple;
 pub use cases::cases;
 pub use crumple::crumple;
 
-use crate::sim::{Control, Simulation};
-use crate::spec::{Limits, Spec};
+use drapery_sim::spec::{Limits, Spec, TimeStep};
+
+use crate::runner::{RunOptions, Start, simulate};
 
 /// How far inside a true surface a particle may be, metres: the user's
 /// bound ("no particle more than 1 mm inside an obstacle").
@@ -72,8 +73,8 @@ pub fn run(case: &Case) -> Outcome {
     let mut out = Outcome {
         case: case.name.clone(),
         dt: match case.spec.solver.dt {
-            crate::spec::TimeStep::Fixed(dt) => dt,
-            crate::spec::TimeStep::Adaptive => f64::NAN,
+            TimeStep::Fixed(dt) => dt,
+            TimeStep::Adaptive => f64::NAN,
         },
         finite: false,
         max_stretch: f64::NAN,
@@ -90,20 +91,17 @@ pub fn run(case: &Case) -> Outcome {
             return out;
         }
     };
-    let mut sim = match Simulation::new(&scene) {
-        Ok(s) => s,
+    let options = RunOptions {
+        start: case.crumple_seed.map_or(Start::Rest, Start::Crumpled),
+        capture: false,
+    };
+    let (stats, result) = match simulate(&scene, options) {
+        Ok(o) => (o.stats, o.error.map_or(Ok(()), Err)),
         Err(e) => {
             out.failures.push(format!("cannot build: {e}"));
             return out;
         }
     };
-    if let Some(seed) = case.crumple_seed {
-        let mut state = sim.state().clone();
-        let up = -sim.scene().gravity;
-        state.x = crumple(sim.grid(), &sim.model().stretch, up, seed);
-        sim.set_state(state);
-    }
-    let (stats, result) = sim.run_recorded(&Control::default(), |_, _| Ok::<(), String>(()));
     out.finite = stats.finite;
     out.max_stretch = stats.max_stretch_any_frame;
     out.min_signed_distance = stats.min_signed_distance;

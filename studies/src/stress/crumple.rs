@@ -7,8 +7,8 @@
 //! is longer than 99 % of its rest length: a crumpled cloth is compressed,
 //! never stretched, so the stretch check measures the solver, not the start.
 
-use crate::cloth::{Grid, Stretch};
-use crate::math::{Real, Vec3};
+use drapery_sim::cloth::{Grid, Stretch};
+use drapery_sim::math::{Real, Vec3};
 
 /// In-plane gathering factor.
 const GATHER: Real = 0.6;
@@ -107,8 +107,13 @@ impl SplitMix64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::ForceModel;
-    use crate::testing::scene_from_json;
+    use drapery_sim::cloth::ForceModel;
+    use drapery_sim::spec::{Limits, Scene, Spec};
+
+    fn scene_from_json(json: &str) -> Scene {
+        let spec: Spec = serde_json::from_str(json).expect("spec parses");
+        spec.validate(&Limits::default()).expect("spec validates")
+    }
 
     #[test]
     fn a_crumpled_cloth_is_folded_compressed_and_reproducible() {

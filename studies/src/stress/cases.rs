@@ -7,7 +7,7 @@
 //! 2 mm blade, a bed of needles, a spinning sphere with friction).
 
 use super::Case;
-use crate::spec::{
+use drapery_sim::spec::{
     BoxShape, ClothSpec, Keyframe, MaterialParams, MaterialSpec, MeshSource, Motion, Obstacle,
     PinEntry, PinGroup, Plane, SolverSpec, Spec, Sphere, TimeStep,
 };
@@ -104,7 +104,7 @@ fn scene(name: &str, cloth: ClothSpec, obstacles: Vec<Obstacle>, dt: f64, durati
 }
 
 fn with_bend(bend: f64) -> MaterialParams {
-    let cotton = crate::spec::preset("cotton").expect("cotton is a preset");
+    let cotton = drapery_sim::spec::preset("cotton").expect("cotton is a preset");
     MaterialParams { bend, ..cotton }
 }
 
@@ -307,7 +307,7 @@ fn tablecloth_pull(n: u32, speed: f64) -> Spec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spec::Limits;
+    use drapery_sim::spec::Limits;
 
     #[test]
     fn every_case_is_a_valid_scene_at_small_and_full_size() {

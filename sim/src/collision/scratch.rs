@@ -1,0 +1,56 @@
+//! What the collision stage computes during a step and throws away after
+//! it: this step's poses, swept boxes, predicted path ends, contact
+//! geometry, and counters. Kept between steps only so nothing allocates.
+
+use super::aabb::Aabb;
+use super::contact::{Contact, Plan};
+use super::pose::Pose;
+use crate::math::Vec3;
+
+/// Counters of one step.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CollisionCounters {
+    /// Hierarchy nodes visited.
+    pub nodes: u64,
+    /// Contacts made.
+    pub new: usize,
+    /// Contacts released.
+    pub released: usize,
+    /// Solves redone because a particle crossed a surface.
+    pub redone: usize,
+}
+
+/// The collision stage's per-step buffers.
+#[derive(Debug, Default)]
+pub struct CollisionScratch {
+    /// This step's geometry of each contact (parallel to the contact set).
+    pub(super) plans: Vec<Plan>,
+    /// This step's poses (start, end) of each obstacle...
+    pub(super) poses: Vec<(Pose, Pose)>,
+    /// ...and the box each obstacle sweeps over the step.
+    pub(super) swept: Vec<Aabb>,
+    /// Predicted end positions.
+    pub(super) predicted: Vec<Vec3>,
+    /// One particle's contacts with their plans.
+    pub(super) group: Vec<(Contact, Plan)>,
+    /// Crossings found by the last test, `(particle, obstacle)`.
+    pub(super) found: Vec<(u32, u32)>,
+    /// Counters since the last [`Self::take_counters`].
+    pub(super) counters: CollisionCounters,
+}
+
+impl CollisionScratch {
+    /// Buffers for `obstacles` obstacles.
+    pub fn new(obstacles: usize) -> Self {
+        Self {
+            poses: vec![(Pose::identity(), Pose::identity()); obstacles],
+            swept: vec![Aabb::empty(); obstacles],
+            ..Self::default()
+        }
+    }
+
+    /// Counters accumulated since the last call, reset.
+    pub fn take_counters(&mut self) -> CollisionCounters {
+        std::mem::take(&mut self.counters)
+    }
+}

@@ -1,0 +1,185 @@
+//! How a frame's interval is cut into steps: fixed steps (each redone as
+//! two halves when it overstretches in one jump), or the adaptive
+//! controller. Both save the state before a step that may be rejected and
+//! put it back from the workspace's rollback buffers.
+
+use super::control::Control;
+use super::error::SimError;
+use super::stage::StageTimes;
+use super::state::RunState;
+use super::step::{StepReport, step};
+use super::workspace::Workspace;
+use super::world::World;
+use crate::math::Real;
+use crate::solver::SolveStatus;
+use crate::spec::TimeStepping;
+
+/// Largest edge stretch an adaptive step may reach before it is redone at
+/// half the size; beyond 10 % a fabric is far outside its linear range.
+const ADAPTIVE_MAX_STRETCH: Real = 1.10;
+/// A fixed step that leaves an edge stretched past this is redone as two
+/// half steps (the user's bound: stretch under 2 %)...
+const SUBDIVIDE_STRETCH: Real = 1.02;
+/// ...if the step itself raised the worst stretch by more than this: a jump
+/// within one step is the step's artifact, while a steady stretch (a point
+/// load at a pin on a fine grid) is physics that smaller steps cannot remove.
+const SUBDIVIDE_JUMP: Real = 0.005;
+/// Halvings of one fixed step at most (a step becomes at most 16 steps).
+const SUBDIVIDE_MAX_DEPTH: u32 = 4;
+/// Accepted steps in a row before the adaptive controller tries a step
+/// twice as large.
+const ADAPTIVE_GROW_AFTER: u32 = 8;
+
+/// The steps of one frame, summed.
+#[derive(Debug, Default)]
+pub struct FrameAccumulator {
+    /// Steps accepted.
+    pub steps: usize,
+    /// CG iterations.
+    pub iterations: usize,
+    /// Most CG iterations of one step.
+    pub iterations_max: usize,
+    /// Solves that stopped before the tolerance.
+    pub unconverged: usize,
+    /// Fixed steps redone as two halves.
+    pub subdivided: usize,
+    /// Stage times.
+    pub times: StageTimes,
+    /// The last step's size.
+    pub last_h: Real,
+}
+
+impl FrameAccumulator {
+    fn add(&mut self, r: &StepReport, h: Real) {
+        self.steps += 1;
+        self.iterations += r.solve.iterations;
+        self.iterations_max = self.iterations_max.max(r.solve.iterations);
+        self.unconverged += usize::from(r.solve.status != SolveStatus::Converged);
+        self.times.add(&r.times);
+        self.last_h = h;
+    }
+}
+
+/// The simulation's parts a driver moves: fixed world, state, buffers.
+#[derive(Debug)]
+pub struct Driver<'a> {
+    /// What the scene built.
+    pub world: &'a World,
+    /// The run's state.
+    pub run: &'a mut RunState,
+    /// Scratch.
+    pub ws: &'a mut Workspace,
+}
+
+impl Driver<'_> {
+    /// Steps over one frame interval (the caller lands the time exactly
+    /// on the frame).
+    pub fn advance_frame(&mut self, control: &Control<'_>) -> Result<FrameAccumulator, SimError> {
+        let mut acc = FrameAccumulator::default();
+        let frame_dt = self.world.scene.frame_dt();
+        match self.world.scene.solver.stepping {
+            TimeStepping::Fixed { substeps } => {
+                let h = frame_dt / substeps as Real;
+                for _ in 0..substeps {
+                    self.check_cancel(control)?;
+                    self.guarded_step(h, 0, &mut acc)?;
+                }
+            }
+            TimeStepping::Adaptive { max_level } => {
+                self.adaptive(control, max_level, &mut acc)?;
+            }
+        }
+        Ok(acc)
+    }
+
+    /// A fixed step of `h`, redone as two half steps (recursively, up to
+    /// [`SUBDIVIDE_MAX_DEPTH`]) when it stretches an edge past
+    /// [`SUBDIVIDE_STRETCH`] in one jump: a long step through a fast swing
+    /// (a free edge whipping round) is where one implicit step overshoots,
+    /// and the halves resolve it. Ordinary steps pay one O(springs) check.
+    fn guarded_step(
+        &mut self,
+        h: Real,
+        depth: u32,
+        acc: &mut FrameAccumulator,
+    ) -> Result<(), SimError> {
+        let stretch = &self.world.model.stretch;
+        let before = stretch.max_ratio(&self.run.state.x);
+        let may_halve = depth < SUBDIVIDE_MAX_DEPTH;
+        if may_halve {
+            self.ws.save(depth as usize, self.run);
+        }
+        let r = step(self.world, self.run, self.ws, h)?;
+        let after = stretch.max_ratio(&self.run.state.x);
+        if may_halve && after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP {
+            self.ws.restore(depth as usize, self.run);
+            acc.subdivided += 1;
+            self.guarded_step(h / 2.0, depth + 1, acc)?;
+            self.guarded_step(h / 2.0, depth + 1, acc)
+        } else {
+            acc.add(&r, h);
+            Ok(())
+        }
+    }
+
+    /// Steps of `frame_dt / 2^level` until the frame is covered: a step is
+    /// redone at half size when its solve fails, it produces non-finite
+    /// numbers, or it stretches an edge past [`ADAPTIVE_MAX_STRETCH`];
+    /// after [`ADAPTIVE_GROW_AFTER`] good steps the size doubles where that
+    /// stays aligned with the frame.
+    fn adaptive(
+        &mut self,
+        control: &Control<'_>,
+        max_level: u32,
+        acc: &mut FrameAccumulator,
+    ) -> Result<(), SimError> {
+        let frame_dt = self.world.scene.frame_dt();
+        // The frame in units of the finest step.
+        let units: u64 = 1 << max_level;
+        let mut done: u64 = 0;
+        while done < units {
+            self.check_cancel(control)?;
+            let h = frame_dt / (1u64 << self.run.level) as Real;
+            self.ws.save(0, self.run);
+            let result = step(self.world, self.run, self.ws, h);
+            let ok = match &result {
+                Ok(r) => {
+                    r.solve.status == SolveStatus::Converged
+                        && self.world.model.stretch.max_ratio(&self.run.state.x)
+                            <= ADAPTIVE_MAX_STRETCH
+                }
+                Err(_) => false,
+            };
+            if !ok && self.run.level < max_level {
+                self.ws.restore(0, self.run);
+                self.run.level += 1;
+                self.run.easy_steps = 0;
+                continue;
+            }
+            let r = result?;
+            acc.add(&r, h);
+            let level = self.run.level;
+            done += 1 << (max_level - level);
+            self.run.easy_steps += 1;
+            let coarser = 1u64 << (max_level - level + 1);
+            if self.run.easy_steps >= ADAPTIVE_GROW_AFTER
+                && level > 0
+                && done.is_multiple_of(coarser)
+            {
+                self.run.level -= 1;
+                self.run.easy_steps = 0;
+            }
+        }
+        Ok(())
+    }
+
+    fn check_cancel(&self, control: &Control<'_>) -> Result<(), SimError> {
+        if control.is_cancelled() {
+            Err(SimError::Cancelled {
+                step: self.run.steps,
+            })
+        } else {
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! The run's state: everything the next steps read that a step changes.
+//! It is the checkpoint: serialisable with any serde format, and a run
+//! continued from a copy taken between frames is bit for bit the
+//! uninterrupted one.
+//!
+//! Besides positions and velocities it holds what makes the next steps
+//! what they would have been: the pins' anchors, the contact set with its
+//! friction states, the last velocity change (the next solve's warm start
+//! and the collision stage's prediction of the next path), and the
+//! adaptive controller's level.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::SimError;
+use super::world::World;
+use crate::collision::Contact;
+use crate::math::{Real, Vec3, is_finite};
+use crate::solver::ClothState;
+use crate::spec::TimeStepping;
+
+/// A run's state (and its checkpoint).
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunState {
+    /// Frames finished.
+    pub frame: usize,
+    /// Steps taken.
+    pub steps: usize,
+    /// The cloth.
+    pub state: ClothState,
+    /// Where the pins hold their particles (`Pins::anchors`).
+    pub(crate) anchors: Vec<Vec3>,
+    /// Particles held by obstacles, sorted by particle then obstacle.
+    pub(crate) contacts: Vec<Contact>,
+    /// The last step's velocity change.
+    pub(crate) warm_start: Vec<Vec3>,
+    /// Adaptive stepping: the current subdivision level...
+    pub(crate) level: u32,
+    /// ...and the run of easy steps at it.
+    pub(crate) easy_steps: u32,
+}
+
+/// A run's state taken between frames, to continue later.
+pub type Checkpoint = RunState;
+
+// PERF: written out so `clone_from` reuses every vector's storage: a
+// rejected step restores the state from a buffer filled before it.
+impl Clone for RunState {
+    fn clone(&self) -> Self {
+        Self {
+            frame: self.frame,
+            steps: self.steps,
+            state: self.state.clone(),
+            anchors: self.anchors.clone(),
+            contacts: self.contacts.clone(),
+            warm_start: self.warm_start.clone(),
+            level: self.level,
+            easy_steps: self.easy_steps,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.frame = source.frame;
+        self.steps = source.steps;
+        self.state.clone_from(&source.state);
+        self.anchors.clone_from(&source.anchors);
+        self.contacts.clone_from(&source.contacts);
+        self.warm_start.clone_from(&source.warm_start);
+        self.level = source.level;
+        self.easy_steps = source.easy_steps;
+    }
+}
+
+impl RunState {
+    /// The state at the start of a run of `world`: the flat grid at rest.
+    pub fn new(world: &World) -> Self {
+        let n = world.grid.len();
+        let level = match world.scene.solver.stepping {
+            TimeStepping::Fixed { .. } => 0,
+            // Start near 1/240 s and let the controller find its way.
+            TimeStepping::Adaptive { max_level } => {
+                ((world.scene.frame_dt() * 240.0).log2().ceil().max(0.0) as u32).min(max_level)
+            }
+        };
+        Self {
+            frame: 0,
+            steps: 0,
+            state: ClothState {
+                time: 0.0,
+                x: world.grid.rest.clone(),
+                v: vec![Vec3::zeros(); n],
+            },
+            anchors: world.pins.anchors(&world.grid.rest, 0.0),
+            contacts: Vec::new(),
+            warm_start: vec![Vec3::zeros(); n],
+            level,
+            easy_steps: 0,
+        }
+    }
+
+    /// The contact set.
+    pub fn contacts(&self) -> &[Contact] {
+        &self.contacts
+    }
+
+    /// Kinetic energy `1/2 Σ m v²` with masses `mass`.
+    pub fn kinetic_energy(&self, mass: &[Real]) -> Real {
+        self.state
+            .v
+            .iter()
+            .zip(mass)
+            .map(|(v, m)| 0.5 * m * v.norm_squared())
+            .sum()
+    }
+
+    /// Replaces the cloth (a start other than the flat grid): pins are
+    /// re-anchored where the new state puts them, the warm start is
+    /// forgotten, and contacts, which belong to the old state, are dropped
+    /// and found again.
+    pub(crate) fn replace_cloth(&mut self, world: &World, state: ClothState) {
+        self.anchors = world.pins.anchors(&state.x, state.time);
+        self.state = state;
+        self.warm_start.fill(Vec3::zeros());
+        self.contacts.clear();
+    }
+
+    /// Checks that this state can continue a run of `world`: the same
+    /// particle count and pins, contacts with known particles and
+    /// obstacles, a frame within the run, finite numbers.
+    pub(crate) fn check_fits(&self, world: &World) -> Result<(), SimError> {
+        let n = world.grid.len();
+        let bad = |m: String| Err(SimError::Checkpoint(m));
+        if self.state.x.len() != n || self.state.v.len() != n || self.warm_start.len() != n {
+            return bad(format!(
+                "holds a cloth of another size (expected {n} particles)"
+            ));
+        }
+        if self.anchors.len() != world.pins.len() {
+            return bad("holds another number of pins".into());
+        }
+        if self.frame > world.scene.frames {
+            return bad(format!(
+                "is at frame {} of a run of {}",
+                self.frame, world.scene.frames
+            ));
+        }
+        let obstacles = world.obstacles.as_ref().map_or(0, |o| o.colliders().len());
+        if self
+            .contacts
+            .iter()
+            .any(|k| k.particle as usize >= n || k.obstacle as usize >= obstacles)
+        {
+            return bad("holds a contact with an unknown particle or obstacle".into());
+        }
+        let finite = |v: &[Vec3]| v.iter().all(is_finite);
+        if !(finite(&self.state.x) && finite(&self.state.v) && finite(&self.warm_start)) {
+            return bad("holds non-finite numbers".into());
+        }
+        Ok(())
+    }
+}

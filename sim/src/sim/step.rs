@@ -1,0 +1,141 @@
+//! One step of the simulation, as a table of stages (method.md §2-§4):
+//!
+//! | stage | does |
+//! | --- | --- |
+//! | constrain | pins -> filters `S`, targets `z`, corrections `y` |
+//! | collision prepare | contacts and predicted crossings -> `S`, `z`, `y`, friction impulses |
+//! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]) |
+//! | precondition | the preconditioner from `A` |
+//! | solve | the modified PCG (filtered residual) |
+//! | update | `v += dv`, `x += h v + y`, finiteness |
+//! | collision resolve | the path taken: accept (release, friction) or redo with new contacts |
+//!
+//! A redo (at most [`MAX_REDOS`] per step) starts again from the
+//! constrain stage with the step's start state and the grown contact set;
+//! crossings left after the last redo take effect from the next step.
+//! Every stage is timed and traced by [`StageClock`].
+
+use super::error::SimError;
+use super::stage::{Stage, StageClock, StageTimes};
+use super::state::RunState;
+use super::workspace::Workspace;
+use super::world::World;
+use crate::collision::{CollisionStage, StepFrame, Verdict};
+use crate::math::Real;
+use crate::solver::{self, SolveReport};
+
+/// Redos of one step's solve when particles cross a surface mid-step;
+/// crossings left after the last are handled by the next step.
+pub const MAX_REDOS: usize = 2;
+
+/// What one step did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    /// The linear solve (iterations summed over redos).
+    pub solve: SolveReport,
+    /// Wall time of each stage.
+    pub times: StageTimes,
+}
+
+/// Advances `run` by one step of `h`.
+pub fn step(
+    world: &World,
+    run: &mut RunState,
+    ws: &mut Workspace,
+    h: Real,
+) -> Result<StepReport, SimError> {
+    let _span = tracing::trace_span!("step", step = run.steps).entered();
+    let physics = world.physics();
+    let frame = StepFrame {
+        mass: &world.grid.mass,
+        pinned: world.pins.mask(),
+        time: run.state.time,
+        h,
+    };
+    if world.obstacles.is_some() {
+        ws.step_start.clone_from(&run.state);
+    }
+    let mut clock = StageClock::default();
+    let mut iterations = 0;
+    let mut redos = 0;
+    loop {
+        clock.run(Stage::Constrain, || {
+            world
+                .pins
+                .constrain(&run.state, &run.anchors, h, &mut ws.constraints)
+        });
+        if let Some(obstacles) = &world.obstacles {
+            clock.run(Stage::CollisionPrepare, || {
+                CollisionStage {
+                    obstacles,
+                    contacts: &mut run.contacts,
+                    scratch: &mut ws.collision,
+                }
+                .prepare(
+                    &frame,
+                    &run.state.x,
+                    &run.state.v,
+                    &run.warm_start,
+                    &mut ws.constraints,
+                )
+            });
+        }
+        clock.run(Stage::Assemble, || {
+            ws.integrator
+                .assemble(&physics, &run.state, &ws.constraints, h)
+        });
+        clock.run(Stage::Precondition, || {
+            ws.integrator.precondition(&ws.constraints)
+        });
+        let mut solve = clock.run(Stage::Solve, || {
+            ws.integrator
+                .solve(&physics, &ws.constraints, h, &mut run.warm_start)
+        });
+        clock
+            .run(Stage::Update, || {
+                solver::update(&mut run.state, &run.warm_start, &ws.constraints, h)
+            })
+            .map_err(|e| SimError::NonFinite {
+                step: run.steps,
+                time: frame.time,
+                particle: e.particle,
+                quantity: e.quantity,
+            })?;
+        iterations += solve.iterations;
+        solve.iterations = iterations;
+        let verdict = match &world.obstacles {
+            None => Verdict::Accept,
+            Some(obstacles) => clock.run(Stage::CollisionResolve, || {
+                let integrator = &ws.integrator;
+                let dv = &run.warm_start;
+                CollisionStage {
+                    obstacles,
+                    contacts: &mut run.contacts,
+                    scratch: &mut ws.collision,
+                }
+                .resolve(
+                    &frame,
+                    &ws.step_start.x,
+                    &run.state.x,
+                    &run.state.v,
+                    world.scene.gravity.norm(),
+                    redos < MAX_REDOS,
+                    |i| integrator.constraint_impulse(i, dv),
+                )
+            }),
+        };
+        match verdict {
+            Verdict::Accept => {
+                run.steps += 1;
+                return Ok(StepReport {
+                    solve,
+                    times: clock.times(),
+                });
+            }
+            Verdict::Redo => {
+                run.state.clone_from(&ws.step_start);
+                redos += 1;
+            }
+        }
+    }
+}

@@ -1,0 +1,55 @@
+//! Scratch memory of a running simulation: everything a step writes and
+//! the next step overwrites, kept only so that nothing allocates per step.
+
+use super::state::RunState;
+use super::world::World;
+use crate::collision::CollisionScratch;
+use crate::solver::{ClothState, Constraints, Integrator};
+
+/// The buffers of a simulation.
+#[derive(Debug)]
+pub struct Workspace {
+    /// The linear system, its preconditioner and the solver's scratch.
+    pub integrator: Integrator,
+    /// This step's filters, targets, corrections and impulses.
+    pub constraints: Constraints,
+    /// The collision stage's buffers.
+    pub collision: CollisionScratch,
+    /// The cloth at the start of the step being taken (a redo restarts
+    /// from it, the collision stage tests the path from it).
+    pub step_start: ClothState,
+    /// States saved before steps that may be rejected, one per nesting
+    /// depth of subdivision.
+    pub rollback: Vec<RunState>,
+}
+
+impl Workspace {
+    /// Buffers for `world`, shaped like `state`.
+    pub fn new(world: &World, state: &RunState) -> Self {
+        let n = world.grid.len();
+        Self {
+            integrator: Integrator::new(&world.grid, &world.model, &world.scene.solver),
+            constraints: Constraints::free(n),
+            collision: CollisionScratch::new(
+                world.obstacles.as_ref().map_or(0, |o| o.colliders().len()),
+            ),
+            step_start: state.state.clone(),
+            rollback: Vec::new(),
+        }
+    }
+
+    /// Saves `state` in the rollback buffer of `depth`.
+    pub fn save(&mut self, depth: usize, state: &RunState) {
+        if self.rollback.len() <= depth {
+            self.rollback.resize_with(depth + 1, || state.clone());
+        }
+        self.rollback[depth].clone_from(state);
+    }
+
+    /// Puts back the state saved at `depth`, forgetting the rejected
+    /// step's velocity change (it must not warm-start the retry).
+    pub fn restore(&self, depth: usize, state: &mut RunState) {
+        state.clone_from(&self.rollback[depth]);
+        state.warm_start.fill(nalgebra::zero());
+    }
+}

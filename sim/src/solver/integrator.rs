@@ -1,0 +1,216 @@
+//! The implicit Euler step of method.md §2, solved by the modified PCG, as
+//! four stages the step pipeline (`sim::step`) calls in order:
+//!
+//! 1. [`Integrator::assemble`]: `A dv = b` with the corrections `y`
+//!    (eq. [20]) and the constraints' impulses;
+//! 2. [`Integrator::precondition`]: rebuild the preconditioner;
+//! 3. [`Integrator::solve`]: the modified PCG under the filters `S` and
+//!    targets `z`;
+//! 4. [`update`]: `v += dv`, `x += h v + y`, and check both are finite.
+//!
+//! Constraints are an input: the caller (pins, and the collision stage)
+//! fills them before the step and may read the constraint impulses after
+//! it. The velocity change `dv` is the caller's too (it is part of the
+//! run's state: the next solve starts from it).
+
+use super::assemble::{AssemblyInput, System};
+use super::constraints::Constraints;
+use super::lines::AlternatingLines;
+use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
+use super::precond::{BlockJacobi, Jacobi, Preconditioner};
+use super::state::ClothState;
+use crate::cloth::{ForceModel, Grid};
+use crate::math::{Real, Vec3, is_finite};
+use crate::spec::{PreconditionerKind, SolverScene};
+
+/// A step that produced non-finite numbers.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("non-finite {quantity} at particle {particle}")]
+pub struct StepError {
+    /// The first offending particle.
+    pub particle: usize,
+    /// `"velocity change"` or `"position"`.
+    pub quantity: &'static str,
+}
+
+/// The physical inputs of a step besides the state.
+#[derive(Debug, Clone, Copy)]
+pub struct Physics<'a> {
+    /// The cloth's forces.
+    pub model: &'a ForceModel,
+    /// Lumped masses.
+    pub mass: &'a [Real],
+    /// Gravitational acceleration.
+    pub gravity: Vec3,
+}
+
+/// The linear system of a step, its preconditioner and the solver's
+/// scratch, reused across steps (nothing allocates per step).
+#[derive(Debug)]
+pub struct Integrator {
+    system: System,
+    precond: Box<dyn Preconditioner>,
+    ws: MpcgWorkspace,
+    options: MpcgOptions,
+    warm_start: bool,
+}
+
+impl Integrator {
+    /// The system of `model` on `grid`, with the preconditioner and
+    /// stopping rule `settings` ask for.
+    pub fn new(grid: &Grid, model: &ForceModel, settings: &SolverScene) -> Self {
+        Self::from_parts(
+            grid.len(),
+            model,
+            preconditioner(settings.preconditioner, grid),
+            MpcgOptions {
+                tolerance: settings.tolerance,
+                max_iterations: settings.max_iterations,
+                reference: None,
+            },
+            settings.warm_start,
+        )
+    }
+
+    /// An integrator over `n` particles with a given preconditioner and
+    /// stopping rule: for tests and benchmarks of the parts (a scene's
+    /// simulation uses [`Self::new`]).
+    pub fn from_parts(
+        n: usize,
+        model: &ForceModel,
+        precond: Box<dyn Preconditioner>,
+        options: MpcgOptions,
+        warm_start: bool,
+    ) -> Self {
+        Self {
+            system: System::new(n, model),
+            precond,
+            ws: MpcgWorkspace::default(),
+            options,
+            warm_start,
+        }
+    }
+
+    /// The filtered residual of the last solve.
+    pub fn residual(&self) -> &[Vec3] {
+        mpcg::residual(&self.ws)
+    }
+
+    /// The impulse the constraints exerted on particle `i` in the last
+    /// solve (whose solution is `dv`), `(A dv - b)_i`: zero on free
+    /// directions (to solver tolerance), the constraint force times `h` on
+    /// blocked ones. Contact release reads its normal part (method.md §4).
+    pub fn constraint_impulse(&self, i: usize, dv: &[Vec3]) -> Vec3 {
+        let ad: Vec3 = self.system.a.row(i).map(|(j, block)| block * dv[j]).sum();
+        ad - self.system.b[i]
+    }
+
+    /// Stage 1: writes `A` and `b` for a step of `h` from `state`
+    /// (eq. [20]), with the constraints' corrections `y` and impulses.
+    pub fn assemble(
+        &mut self,
+        physics: &Physics<'_>,
+        state: &ClothState,
+        constraints: &Constraints,
+        h: Real,
+    ) {
+        self.system.assemble(
+            physics.model,
+            &AssemblyInput {
+                x: &state.x,
+                v: &state.v,
+                y: &constraints.y,
+                mass: physics.mass,
+                gravity: physics.gravity,
+                h,
+            },
+        );
+        for (b, j) in self.system.b.iter_mut().zip(&constraints.impulse) {
+            *b += j;
+        }
+    }
+
+    /// Stage 2: rebuilds the preconditioner from the assembled matrix.
+    pub fn precondition(&mut self, constraints: &Constraints) {
+        self.precond.update(&self.system.a, &constraints.filter);
+    }
+
+    /// Stage 3: solves for `dv`, which holds the warm start on entry (it
+    /// is zeroed first when warm starts are off).
+    pub fn solve(
+        &mut self,
+        physics: &Physics<'_>,
+        constraints: &Constraints,
+        h: Real,
+        dv: &mut [Vec3],
+    ) -> SolveReport {
+        if !self.warm_start {
+            dv.fill(Vec3::zeros());
+        }
+        // NOTE: at rest b -> 0, and a tolerance relative to |S b| alone
+        // would demand ever more digits of nothing; the gravity impulse
+        // h M g sets the scale of a step's velocity change instead.
+        let sb = mpcg::filtered_norm(&self.system.b, &constraints.filter);
+        let gravity_impulse = physics
+            .mass
+            .iter()
+            .zip(&constraints.filter)
+            .map(|(m, f)| f.apply(&(physics.gravity * (h * m))).norm_squared())
+            .sum::<Real>()
+            .sqrt();
+        let options = MpcgOptions {
+            reference: Some(sb.max(gravity_impulse)),
+            ..self.options
+        };
+        mpcg::solve(
+            &Problem {
+                a: &self.system.a,
+                b: &self.system.b,
+                filter: &constraints.filter,
+                z: &constraints.z,
+            },
+            self.precond.as_ref(),
+            dv,
+            &options,
+            &mut self.ws,
+        )
+    }
+}
+
+/// Stage 4: `v += dv`, `x += h v + y`, `t += h`; the first non-finite
+/// velocity change or position is an error (the state is then partly
+/// updated and must be discarded).
+pub fn update(
+    state: &mut ClothState,
+    dv: &[Vec3],
+    constraints: &Constraints,
+    h: Real,
+) -> Result<(), StepError> {
+    if let Some(particle) = dv.iter().position(|d| !is_finite(d)) {
+        return Err(StepError {
+            particle,
+            quantity: "velocity change",
+        });
+    }
+    for i in 0..state.x.len() {
+        state.v[i] += dv[i];
+        state.x[i] += state.v[i] * h + constraints.y[i];
+    }
+    state.time += h;
+    if let Some(particle) = state.x.iter().position(|x| !is_finite(x)) {
+        return Err(StepError {
+            particle,
+            quantity: "position",
+        });
+    }
+    Ok(())
+}
+
+/// The preconditioner `kind` for `grid`.
+fn preconditioner(kind: PreconditionerKind, grid: &Grid) -> Box<dyn Preconditioner> {
+    match kind {
+        PreconditionerKind::Jacobi => Box::<Jacobi>::default(),
+        PreconditionerKind::BlockJacobi => Box::<BlockJacobi>::default(),
+        PreconditionerKind::Lines => Box::new(AlternatingLines::new(grid.nu, grid.nv)),
+    }
+}
