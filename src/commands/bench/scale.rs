@@ -14,9 +14,8 @@ use std::fmt::Write as _;
 use std::process::ExitCode;
 
 use super::fit::power_law;
-use super::peak_rss_mib;
 use super::plot::{Series, Style, loglog};
-use super::runner;
+use super::runner::{self, peak_rss_mib};
 use crate::cli::ScaleArgs;
 
 /// The default scene: `examples/scenes/sphere-drape-30.json`.
