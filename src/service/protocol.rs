@@ -1,7 +1,7 @@
 //! The WebSocket protocol's text messages (DESIGN.md "Service"), as one
 //! type: [`StreamMessage`], tagged by `type`. A stream sends `hello`, then
 //! per frame a `stats` message followed by the binary frame
-//! ([`super::frame_bytes`]), then one end: `done`, `failed` or `cancelled`
+//! (see `frame_bytes`), then one end: `done`, `failed` or `cancelled`
 //! (or `interrupted` when the server shuts down first).
 //!
 //! NOTE: every message and every stored JSON document is written through
