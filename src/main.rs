@@ -12,7 +12,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Run(args) => commands::run::run(&args),
         Command::Validate(args) => commands::validate::run(&args),
-        Command::Serve(args) => drapery::service::serve(&args),
+        Command::Serve(args) => commands::serve::run(&args),
         Command::Openapi(args) => commands::openapi::run(&args),
         Command::Health(args) => commands::health::run(&args),
         Command::Bench(cmd) => commands::bench::run(&cmd),

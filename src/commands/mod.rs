@@ -1,16 +1,9 @@
 //! One module per subcommand.
 
 pub mod bench;
+mod files;
 pub mod health;
 pub mod openapi;
 pub mod run;
+pub mod serve;
 pub mod validate;
-
-use std::path::Path;
-
-use anyhow::Context;
-
-/// Reads a spec file, with the path in the error.
-pub(crate) fn read_spec(path: &Path) -> anyhow::Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))
-}

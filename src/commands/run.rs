@@ -22,7 +22,7 @@ use crate::specfile;
 
 /// Runs the job; exit 2 for an invalid spec, 1 for a failed run.
 pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
-    let text = super::read_spec(&args.spec)?;
+    let text = super::files::read_spec(&args.spec)?;
     let scene = match specfile::load(&text, &Limits::default()) {
         Ok(s) => s,
         Err(e) => {

@@ -9,7 +9,7 @@ use crate::specfile;
 
 /// Prints `ok` and the scene's size, or every error.
 pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
-    let text = super::read_spec(&args.spec)?;
+    let text = super::files::read_spec(&args.spec)?;
     match specfile::load(&text, &Limits::default()) {
         Ok(scene) => {
             println!(

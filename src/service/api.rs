@@ -1,8 +1,8 @@
 //! The REST handlers under `/v1` (DESIGN.md "Service"), each annotated for
-//! the OpenAPI document.
-
-use std::sync::Arc;
-use std::time::Duration;
+//! the OpenAPI document. Each one extracts the request, calls [`Jobs`],
+//! and turns the answer or the domain error into a response.
+//!
+//! [`Jobs`]: super::jobs::Jobs
 
 use axum::Json;
 use axum::body::Bytes;
@@ -13,43 +13,14 @@ use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 use utoipa::{IntoParams, ToSchema};
 
-use super::auth::Owner;
-use super::error::{ApiError, ErrorDetail, ErrorResponse};
-use super::hello;
-use super::hub::Live;
-use super::job::{Job, JobList, Status, now};
-use super::queue::Queued;
-use super::results::{self, Format};
-use super::state::{Shared, StopReason};
-use super::store::{JobRow, NewJob};
-use crate::specfile::{self, SpecLoadError};
-
-/// Seconds a client is asked to wait when the queue is full.
-const RETRY_AFTER_SECONDS: u32 = 5;
-/// Longest wait of `DELETE` for a running job to stop.
-const CANCEL_WAIT: Duration = Duration::from_secs(5);
-
-/// Runs blocking store work off the async executor.
-async fn blocking<T: Send + 'static>(
-    shared: &Arc<Shared>,
-    f: impl FnOnce(&Shared) -> Result<T, ApiError> + Send + 'static,
-) -> Result<T, ApiError> {
-    let shared = Arc::clone(shared);
-    tokio::task::spawn_blocking(move || f(&shared)).await?
-}
-
-/// The job `id` if the caller may see it.
-pub(super) async fn visible_job(
-    shared: &Arc<Shared>,
-    owner: &Owner,
-    id: String,
-) -> Result<JobRow, ApiError> {
-    let row = blocking(shared, move |s| Ok(s.store.job(&id)?)).await?;
-    match row {
-        Some(r) if owner.may_see(&r.owner) => Ok(r),
-        _ => Err(ApiError::not_found("such job")),
-    }
-}
+use super::error::{ApiError, ErrorResponse};
+use super::error_code::ErrorCode;
+use super::frame_bytes::{binary_frame, decode_positions};
+use super::jobs::ListFilter;
+use super::keys::Owner;
+use super::results::Format;
+use super::state::AppState;
+use super::view::{Job, JobList};
 
 /// Submit a job spec.
 ///
@@ -69,93 +40,12 @@ pub(super) async fn visible_job(
     security(("api_key" = []))
 )]
 pub async fn submit(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, ApiError> {
-    let body = body.map_err(|e| match e {
-        BytesRejection::FailedToBufferBody(_) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
-            ApiError::new(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                "payload_too_large",
-                format!(
-                    "the body is larger than this server's limit of {} bytes (--max-body-bytes)",
-                    shared.config.max_body_bytes
-                ),
-            )
-        }
-        other => ApiError::bad_request(other.body_text()),
-    })?;
-    let limits = shared.config.limits;
-    let owner = owner.name().to_owned();
-    let job = blocking(&shared, move |s| {
-        let text = std::str::from_utf8(&body).map_err(|e| {
-            ApiError::new(
-                StatusCode::BAD_REQUEST,
-                "malformed_json",
-                format!("the body is not UTF-8: {e}"),
-            )
-        })?;
-        let scene = specfile::load(text, &limits).map_err(spec_error)?;
-        let id = uuid::Uuid::now_v7().to_string();
-        let hello_json = hello::build(&scene, &id).map_err(|e| {
-            ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_spec", e.message)
-                .with_path(e.path)
-        })?;
-        // One submission at a time between the capacity check and the
-        // push, so the queue never holds more than its capacity.
-        let _guard = s.submit_lock();
-        if s.queue.len() >= s.config.queue_capacity {
-            s.metrics.rejected_queue_full.inc();
-            let mut e = ApiError::new(
-                StatusCode::TOO_MANY_REQUESTS,
-                "queue_full",
-                format!(
-                    "{} jobs are already waiting (--queue-capacity); try again later",
-                    s.config.queue_capacity
-                ),
-            );
-            e.retry_after = Some(RETRY_AFTER_SECONDS);
-            return Err(e);
-        }
-        if s.is_stopping() {
-            let mut e = ApiError::new(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "shutting_down",
-                "the server is shutting down",
-            );
-            e.retry_after = Some(RETRY_AFTER_SECONDS);
-            return Err(e);
-        }
-        let seq = s.store.insert_job(&NewJob {
-            id: &id,
-            owner: &owner,
-            name: &scene.name,
-            spec: text,
-            hello: &hello_json,
-            frames_total: scene.frames as u64 + 1,
-            created_at: now(),
-        })?;
-        s.hub.open(
-            &id,
-            Live {
-                frames: 0,
-                status: Status::Queued,
-            },
-        );
-        s.queue.push(Queued {
-            seq,
-            id: id.clone(),
-        });
-        s.metrics.submitted.inc();
-        let row = s
-            .store
-            .job(&id)?
-            .ok_or_else(|| ApiError::internal("job vanished"))?;
-        Ok(Job::from_row(&row))
-    })
-    .await?;
-    tracing::info!(id = %job.id, name = %job.name, "job submitted");
+    let body = body.map_err(|e| body_error(&e, state.config.max_body_bytes))?;
+    let job = Job::from_row(&state.jobs.submit(&owner, body).await?);
     let mut headers = HeaderMap::new();
     if let Ok(v) = HeaderValue::from_str(&job.links.self_) {
         headers.insert(header::LOCATION, v);
@@ -163,39 +53,18 @@ pub async fn submit(
     Ok((StatusCode::CREATED, headers, Json(job)).into_response())
 }
 
-fn spec_error(e: SpecLoadError) -> ApiError {
+/// A body that could not be read: too large, or broken.
+fn body_error(e: &BytesRejection, limit: usize) -> ApiError {
     match e {
-        SpecLoadError::Malformed(m) => ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "malformed_json",
-            format!("malformed JSON: {m}"),
-        ),
-        SpecLoadError::Invalid(errors) => {
-            let details: Vec<ErrorDetail> = errors
-                .0
-                .iter()
-                .map(|e| ErrorDetail {
-                    path: e.path.clone(),
-                    message: e.message.clone(),
-                })
-                .collect();
-            let first = details.first().cloned().unwrap_or(ErrorDetail {
-                path: String::new(),
-                message: "invalid spec".into(),
-            });
-            let mut err = ApiError::new(
-                StatusCode::UNPROCESSABLE_ENTITY,
-                "invalid_spec",
-                if first.path.is_empty() {
-                    first.message.clone()
-                } else {
-                    format!("{}: {}", first.path, first.message)
-                },
+        BytesRejection::FailedToBufferBody(_) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
+            ApiError::new(
+                ErrorCode::PayloadTooLarge,
+                format!(
+                    "the body is larger than this server's limit of {limit} bytes (--max-body-bytes)"
+                ),
             )
-            .with_path(first.path);
-            err.body.details = details;
-            err
         }
+        other => ApiError::bad_request(other.body_text()),
     }
 }
 
@@ -222,42 +91,13 @@ pub struct ListQuery {
     security(("api_key" = []))
 )]
 pub async fn list(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     Query(q): Query<ListQuery>,
 ) -> Result<Json<JobList>, ApiError> {
-    let status = match q.status.as_deref() {
-        None => None,
-        Some(s) => Some(Status::parse(s).ok_or_else(|| {
-            ApiError::bad_request(format!(
-                "unknown status {s:?}; expected queued, running, succeeded, failed or cancelled"
-            ))
-            .with_path("status")
-        })?),
-    };
-    let limit = q.limit.unwrap_or(50);
-    if !(1..=500).contains(&limit) {
-        return Err(ApiError::bad_request("must be between 1 and 500").with_path("limit"));
-    }
-    let before = match q.cursor.as_deref() {
-        None => None,
-        Some(c) => Some(c.parse::<i64>().map_err(|_| {
-            ApiError::bad_request("not a cursor from this API").with_path("cursor")
-        })?),
-    };
-    let mine = owner.0.clone();
-    let rows = blocking(&shared, move |s| {
-        Ok(s.store.list(mine.as_deref(), status, before, limit + 1)?)
-    })
-    .await?;
-    let more = rows.len() > limit;
-    let rows = &rows[..rows.len().min(limit)];
-    Ok(Json(JobList {
-        jobs: rows.iter().map(Job::from_row).collect(),
-        next_cursor: more
-            .then(|| rows.last().map(|r| r.seq.to_string()))
-            .flatten(),
-    }))
+    let filter = ListFilter::parse(q.status.as_deref(), q.limit, q.cursor.as_deref())?;
+    let page = state.jobs.list(&owner, filter).await?;
+    Ok(Json(JobList::from_page(&page)))
 }
 
 /// A job's status, progress, timings, statistics and error.
@@ -268,13 +108,11 @@ pub async fn list(
     security(("api_key" = []))
 )]
 pub async fn get(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
 ) -> Result<Json<Job>, ApiError> {
-    Ok(Json(Job::from_row(
-        &visible_job(&shared, &owner, id).await?,
-    )))
+    Ok(Json(Job::from_row(&state.jobs.get(&owner, &id).await?)))
 }
 
 /// Cancel a queued or running job.
@@ -293,45 +131,11 @@ pub async fn get(
     security(("api_key" = []))
 )]
 pub async fn cancel(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
 ) -> Result<Json<Job>, ApiError> {
-    let mut rx = shared.hub.subscribe(&id);
-    let row = visible_job(&shared, &owner, id.clone()).await?;
-    match row.status {
-        Status::Succeeded | Status::Failed => {
-            return Err(ApiError::conflict(format!(
-                "the job already {}",
-                row.status.as_str()
-            )));
-        }
-        Status::Cancelled => return Ok(Json(Job::from_row(&row))),
-        Status::Queued | Status::Running => {}
-    }
-    let seq = row.seq;
-    let id2 = id.clone();
-    let cancelled_queued = blocking(&shared, move |s| {
-        let done = s.store.cancel_queued(seq, now())?;
-        if done {
-            s.queue.remove(seq);
-            s.hub.close(&id2, Status::Cancelled);
-        }
-        Ok(done)
-    })
-    .await?;
-    if !cancelled_queued {
-        if let Some(h) = shared.running().get(&id) {
-            h.stop(StopReason::Cancelled);
-        }
-        if let Some(rx) = &mut rx {
-            let _ =
-                tokio::time::timeout(CANCEL_WAIT, rx.wait_for(|l| l.status.is_terminal())).await;
-        }
-    }
-    tracing::info!(%id, "job cancel requested");
-    let row = visible_job(&shared, &owner, id).await?;
-    Ok(Json(Job::from_row(&row)))
+    Ok(Json(Job::from_row(&state.jobs.cancel(&owner, &id).await?)))
 }
 
 /// Frame selector.
@@ -369,33 +173,24 @@ pub struct FrameJson {
     security(("api_key" = []))
 )]
 pub async fn frame(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     Path(p): Path<FramePath>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let row = visible_job(&shared, &owner, p.id).await?;
-    let (seq, n) = (row.seq, p.n);
-    let f = blocking(&shared, move |s| Ok(s.store.frame(seq, n)?))
-        .await?
-        .ok_or_else(|| {
-            ApiError::not_found(&format!(
-                "frame {n}: {} of {} frames are stored",
-                row.frames_done, row.frames_total
-            ))
-        })?;
+    let f = state.jobs.frame(&owner, &p.id, p.n).await?;
     let binary = headers
         .get(header::ACCEPT)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|v| v.contains("application/octet-stream"));
     if binary {
-        let body = results::binary_frame(f.n, f.time, &f.positions);
+        let body = binary_frame(f.n, f.time, &f.positions);
         return Ok(([(header::CONTENT_TYPE, "application/octet-stream")], body).into_response());
     }
     Ok(Json(FrameJson {
         frame: f.n,
         time: f.time,
-        vertices: results::decode_positions(&f.positions),
+        vertices: decode_positions(&f.positions),
         stats: serde_json::from_str(&f.stats).unwrap_or_default(),
     })
     .into_response())
@@ -424,38 +219,18 @@ pub struct ResultQuery {
     security(("api_key" = []))
 )]
 pub async fn result(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     Query(q): Query<ResultQuery>,
 ) -> Result<Response, ApiError> {
-    let format = match q.format.as_deref().unwrap_or("obj") {
-        "obj" => Format::Obj,
-        "pc2" => Format::Pc2,
-        "glb" => Format::Glb,
-        other => {
-            return Err(ApiError::bad_request(format!(
-                "unknown format {other:?}; expected obj, pc2 or glb"
-            ))
-            .with_path("format"));
-        }
-    };
-    let row = visible_job(&shared, &owner, id).await?;
-    if !row.status.is_terminal() {
-        return Err(ApiError::conflict(format!(
-            "the job is {}; results are available once it ends (frames stream live)",
-            row.status.as_str()
-        )));
-    }
-    if row.frames_done == 0 {
-        return Err(ApiError::conflict("the job stored no frame"));
-    }
-    let name = row.id.clone();
-    let bytes = blocking(&shared, move |s| {
-        results::build(&s.store, &row, format).map_err(|e| ApiError::internal(format!("{e:#}")))
-    })
-    .await?;
-    let disposition = format!("attachment; filename=\"{name}.{}\"", format.extension());
+    let name = q.format.as_deref().unwrap_or("obj");
+    let format = Format::parse(name).ok_or_else(|| {
+        ApiError::bad_request(format!("unknown format {name:?}; expected obj, pc2 or glb"))
+            .with_path("format")
+    })?;
+    let (row, bytes) = state.jobs.download(&owner, &id, format).await?;
+    let disposition = format!("attachment; filename=\"{}.{}\"", row.id, format.extension());
     Ok((
         [
             (header::CONTENT_TYPE, format.content_type().to_owned()),

@@ -1,12 +1,23 @@
 //! API errors: every failure is `{"error": {"code", "message", "path"}}`
-//! with the HTTP status that says whose fault it is.
+//! with the HTTP status its [`ErrorCode`] stands for. Domain errors become
+//! `ApiError`s here, in one place per error type.
+//!
+//! A client's mistake is answered and logged at most at debug level; a
+//! failure of the service's own is logged as an error with its cause and
+//! answered `internal` without it.
 
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::store::StoreError;
+use super::error_code::ErrorCode;
+use super::jobs::{Fault, JobsError, ListError, SubmitError};
+use crate::specfile::SpecLoadError;
+
+/// Seconds a client is asked to wait when the queue is full or the server
+/// is stopping.
+const RETRY_AFTER_SECONDS: u32 = 5;
 
 /// One problem, with the spec field it concerns.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -20,10 +31,8 @@ pub struct ErrorDetail {
 /// The body of every error response.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ErrorBody {
-    /// Machine-readable: `malformed_json`, `invalid_spec`, `not_found`,
-    /// `unauthorized`, `payload_too_large`, `queue_full`, `conflict`,
-    /// `bad_request`, `internal`.
-    pub code: String,
+    /// Machine-readable.
+    pub code: ErrorCode,
     /// The first (or only) problem, for people.
     pub message: String,
     /// The first problem's field path, when it concerns one.
@@ -42,18 +51,16 @@ pub struct ErrorResponse {
 /// An error on its way to the client.
 #[derive(Debug)]
 pub struct ApiError {
-    pub status: StatusCode,
     pub body: ErrorBody,
     /// Seconds for a `Retry-After` header (429, 503).
     pub retry_after: Option<u32>,
 }
 
 impl ApiError {
-    pub fn new(status: StatusCode, code: &str, message: impl Into<String>) -> Self {
+    pub fn new(code: ErrorCode, message: impl Into<String>) -> Self {
         Self {
-            status,
             body: ErrorBody {
-                code: code.into(),
+                code,
                 message: message.into(),
                 path: None,
                 details: Vec::new(),
@@ -62,48 +69,206 @@ impl ApiError {
         }
     }
 
+    /// `not_found`: "no {what}".
     pub fn not_found(what: &str) -> Self {
-        Self::new(StatusCode::NOT_FOUND, "not_found", format!("no {what}"))
+        Self::new(ErrorCode::NotFound, format!("no {what}"))
     }
 
     pub fn bad_request(message: impl Into<String>) -> Self {
-        Self::new(StatusCode::BAD_REQUEST, "bad_request", message)
-    }
-
-    pub fn conflict(message: impl Into<String>) -> Self {
-        Self::new(StatusCode::CONFLICT, "conflict", message)
-    }
-
-    pub fn internal(message: impl Into<String>) -> Self {
-        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", message)
+        Self::new(ErrorCode::BadRequest, message)
     }
 
     pub fn with_path(mut self, path: impl Into<String>) -> Self {
         self.body.path = Some(path.into());
         self
     }
-}
 
-impl From<StoreError> for ApiError {
-    fn from(e: StoreError) -> Self {
-        tracing::error!(error = %e, "store failure");
-        Self::internal(e.to_string())
+    fn retry_later(mut self) -> Self {
+        self.retry_after = Some(RETRY_AFTER_SECONDS);
+        self
+    }
+
+    /// The HTTP status of the error's code.
+    pub fn status(&self) -> StatusCode {
+        status_of(self.body.code)
     }
 }
 
-impl From<tokio::task::JoinError> for ApiError {
-    fn from(e: tokio::task::JoinError) -> Self {
-        Self::internal(format!("request task failed: {e}"))
+/// The status each code answers with.
+fn status_of(code: ErrorCode) -> StatusCode {
+    match code {
+        ErrorCode::MalformedJson | ErrorCode::BadRequest => StatusCode::BAD_REQUEST,
+        ErrorCode::InvalidSpec => StatusCode::UNPROCESSABLE_ENTITY,
+        ErrorCode::NotFound => StatusCode::NOT_FOUND,
+        ErrorCode::Unauthorized => StatusCode::UNAUTHORIZED,
+        ErrorCode::PayloadTooLarge => StatusCode::PAYLOAD_TOO_LARGE,
+        ErrorCode::QueueFull => StatusCode::TOO_MANY_REQUESTS,
+        ErrorCode::Conflict => StatusCode::CONFLICT,
+        ErrorCode::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
+        // A job's failure codes never answer a request; were one to, it
+        // would be the server's fault.
+        ErrorCode::Internal | ErrorCode::NonFinite | ErrorCode::LimitExceeded => {
+            StatusCode::INTERNAL_SERVER_ERROR
+        }
+    }
+}
+
+impl From<Fault> for ApiError {
+    fn from(e: Fault) -> Self {
+        tracing::error!(error = %e, "internal failure");
+        Self::new(
+            ErrorCode::Internal,
+            "internal error; the server's log has the details",
+        )
+    }
+}
+
+impl From<SubmitError> for ApiError {
+    fn from(e: SubmitError) -> Self {
+        let message = e.to_string();
+        match e {
+            SubmitError::NotUtf8(_) => Self::new(ErrorCode::MalformedJson, message),
+            SubmitError::Spec(e) => spec_error(e),
+            SubmitError::Undrawable(e) => {
+                Self::new(ErrorCode::InvalidSpec, message).with_path(e.path)
+            }
+            SubmitError::QueueFull { .. } => Self::new(ErrorCode::QueueFull, message).retry_later(),
+            SubmitError::ShuttingDown => Self::new(ErrorCode::ShuttingDown, message).retry_later(),
+            SubmitError::Fault(f) => f.into(),
+        }
+    }
+}
+
+/// A spec that does not load: malformed JSON, or every rule it breaks with
+/// the first one's path.
+fn spec_error(e: SpecLoadError) -> ApiError {
+    match e {
+        SpecLoadError::Malformed(_) => ApiError::new(ErrorCode::MalformedJson, e.to_string()),
+        SpecLoadError::Invalid(errors) => {
+            let details: Vec<ErrorDetail> = errors
+                .0
+                .iter()
+                .map(|e| ErrorDetail {
+                    path: e.path.clone(),
+                    message: e.message.clone(),
+                })
+                .collect();
+            let first = details.first().cloned().unwrap_or(ErrorDetail {
+                path: String::new(),
+                message: "invalid spec".into(),
+            });
+            let message = if first.path.is_empty() {
+                first.message.clone()
+            } else {
+                format!("{}: {}", first.path, first.message)
+            };
+            let mut err = ApiError::new(ErrorCode::InvalidSpec, message).with_path(first.path);
+            err.body.details = details;
+            err
+        }
+    }
+}
+
+impl From<JobsError> for ApiError {
+    fn from(e: JobsError) -> Self {
+        let message = e.to_string();
+        match e {
+            JobsError::NotFound | JobsError::FrameNotStored { .. } => {
+                Self::new(ErrorCode::NotFound, message)
+            }
+            JobsError::AlreadyEnded(_) | JobsError::NotEnded(_) | JobsError::NoFrames => {
+                Self::new(ErrorCode::Conflict, message)
+            }
+            JobsError::Fault(f) => f.into(),
+        }
+    }
+}
+
+impl From<ListError> for ApiError {
+    fn from(e: ListError) -> Self {
+        Self::bad_request(e.to_string()).with_path(e.parameter())
     }
 }
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
-        let mut r = (self.status, axum::Json(ErrorResponse { error: self.body })).into_response();
+        let status = self.status();
+        let mut r = (status, axum::Json(ErrorResponse { error: self.body })).into_response();
         if let Some(s) = self.retry_after {
             r.headers_mut()
                 .insert(header::RETRY_AFTER, HeaderValue::from(s));
         }
         r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::job::Status;
+
+    fn body(e: ApiError) -> (StatusCode, serde_json::Value) {
+        let status = e.status();
+        let retry = e.retry_after;
+        let mut v = serde_json::to_value(ErrorResponse { error: e.body }).expect("JSON");
+        if let Some(r) = retry {
+            v["retry_after"] = r.into();
+        }
+        (status, v)
+    }
+
+    #[test]
+    fn domain_errors_keep_their_status_code_and_message() {
+        let (s, v) = body(SubmitError::QueueFull { capacity: 1 }.into());
+        assert_eq!(s, StatusCode::TOO_MANY_REQUESTS);
+        assert_eq!(v["error"]["code"], "queue_full");
+        assert_eq!(
+            v["error"]["message"],
+            "1 jobs are already waiting (--queue-capacity); try again later"
+        );
+        assert_eq!(v["retry_after"], 5);
+        let (s, v) = body(SubmitError::ShuttingDown.into());
+        assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE);
+        assert_eq!(v["error"]["code"], "shutting_down");
+        let (s, v) = body(JobsError::NotFound.into());
+        assert_eq!(s, StatusCode::NOT_FOUND);
+        assert_eq!(v["error"]["message"], "no such job");
+        assert_eq!(v["error"]["path"], serde_json::Value::Null);
+        let (s, v) = body(JobsError::AlreadyEnded(Status::Succeeded).into());
+        assert_eq!(s, StatusCode::CONFLICT);
+        assert_eq!(v["error"]["message"], "the job already succeeded");
+        let (s, v) = body(
+            JobsError::FrameNotStored {
+                n: 9,
+                done: 2,
+                total: 5,
+            }
+            .into(),
+        );
+        assert_eq!(s, StatusCode::NOT_FOUND);
+        assert_eq!(
+            v["error"]["message"],
+            "no frame 9: 2 of 5 frames are stored"
+        );
+        let (s, v) = body(ListError::Cursor.into());
+        assert_eq!(s, StatusCode::BAD_REQUEST);
+        assert_eq!(v["error"]["path"], "cursor");
+        let (s, v) = body(SubmitError::Spec(SpecLoadError::Malformed("EOF".into())).into());
+        assert_eq!(s, StatusCode::BAD_REQUEST);
+        assert_eq!(v["error"]["message"], "malformed JSON: EOF");
+    }
+
+    /// A failure of the service's own says `internal` and nothing more.
+    #[test]
+    fn internal_details_stay_in_the_log() {
+        let (s, v) = body(Fault::Vanished(crate::service::job::JobId::generate()).into());
+        assert_eq!(s, StatusCode::INTERNAL_SERVER_ERROR);
+        assert_eq!(v["error"]["code"], "internal");
+        assert!(
+            !v["error"]["message"]
+                .as_str()
+                .unwrap_or("")
+                .contains("vanished")
+        );
     }
 }

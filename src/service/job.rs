@@ -1,10 +1,40 @@
-//! A job as the API shows it: status, progress, timings, statistics,
-//! error, links.
+//! The words every part of the service uses about a job: its id, its
+//! status, why it failed. No behaviour here beyond naming and parsing.
+
+use std::fmt;
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
+use uuid::Uuid;
 
-use super::store::JobRow;
+use super::error_code::ErrorCode;
+
+/// A job's one key, inside the service and in the API: a UUID v7
+/// (time-ordered), written hyphenated in lower case. The store's `seq`
+/// column only orders the list and serves as its cursor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct JobId(Uuid);
+
+impl JobId {
+    /// A fresh id for a submission.
+    pub fn generate() -> Self {
+        Self(Uuid::now_v7())
+    }
+
+    /// The id written as `s`, if `s` is one exactly as this API writes ids;
+    /// other spellings of a UUID (upper case, no hyphens, braces) name no
+    /// job, as they never did.
+    pub fn parse(s: &str) -> Option<Self> {
+        let id = Self(Uuid::try_parse(s).ok()?);
+        (id.to_string() == s).then_some(id)
+    }
+}
+
+impl fmt::Display for JobId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.0.hyphenated(), f)
+    }
+}
 
 /// Where a job is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
@@ -50,126 +80,20 @@ impl Status {
 
     /// The job will not change any more.
     pub fn is_terminal(self) -> bool {
-        matches!(self, Status::Succeeded | Status::Failed | Status::Cancelled)
-    }
-}
-
-/// Frames done out of the total.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct Progress {
-    /// Frames stored (frame 0, the initial state, included).
-    pub frames_done: u64,
-    /// Frames the job will have.
-    pub frames_total: u64,
-    /// `frames_done / frames_total`.
-    pub fraction: f64,
-}
-
-/// When things happened (RFC 3339, UTC) and how long they took.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct Timings {
-    pub created_at: String,
-    pub started_at: Option<String>,
-    pub finished_at: Option<String>,
-    /// Seconds from submission to the first start.
-    pub queued_seconds: Option<f64>,
-    /// Seconds of simulation, over every attempt.
-    pub run_seconds: f64,
-    /// Times a worker started the job (more than 1 after a restart).
-    pub attempts: u32,
-}
-
-/// Why a job failed.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct JobError {
-    /// Machine-readable: `non_finite`, `limit_exceeded`, `internal`, ...
-    pub code: String,
-    /// For people.
-    pub message: String,
-}
-
-/// Where to go next.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct Links {
-    #[serde(rename = "self")]
-    pub self_: String,
-    pub stream: String,
-    pub frames: String,
-    pub result: String,
-}
-
-/// A job.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct Job {
-    pub id: String,
-    /// The spec's name.
-    pub name: String,
-    pub status: Status,
-    pub progress: Progress,
-    pub timings: Timings,
-    /// The run's statistics without the per-frame list (the fields of
-    /// `stats.json`), once it ended.
-    #[schema(value_type = Option<Object>)]
-    pub stats: Option<serde_json::Value>,
-    pub error: Option<JobError>,
-    pub links: Links,
-}
-
-/// A page of jobs, newest first.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
-pub struct JobList {
-    pub jobs: Vec<Job>,
-    /// Pass as `cursor` for the next page; absent on the last page.
-    pub next_cursor: Option<String>,
-}
-
-impl Job {
-    /// The API view of a stored job.
-    pub fn from_row(row: &JobRow) -> Self {
-        let base = format!("/v1/jobs/{}", row.id);
-        Job {
-            id: row.id.clone(),
-            name: row.name.clone(),
-            status: row.status,
-            progress: Progress {
-                frames_done: row.frames_done,
-                frames_total: row.frames_total,
-                fraction: if row.frames_total > 0 {
-                    row.frames_done as f64 / row.frames_total as f64
-                } else {
-                    0.0
-                },
-            },
-            timings: Timings {
-                created_at: rfc3339(row.created_at),
-                started_at: row.started_at.map(rfc3339),
-                finished_at: row.finished_at.map(rfc3339),
-                queued_seconds: row.started_at.map(|s| (s - row.created_at).max(0.0)),
-                run_seconds: row.run_seconds,
-                attempts: row.attempts,
-            },
-            stats: row
-                .stats
-                .as_deref()
-                .and_then(|s| serde_json::from_str(s).ok()),
-            error: row
-                .error
-                .as_deref()
-                .and_then(|s| serde_json::from_str(s).ok()),
-            links: Links {
-                stream: format!("{base}/stream"),
-                frames: format!("{base}/frames/{{n}}"),
-                result: format!("{base}/result"),
-                self_: base,
-            },
+        match self {
+            Status::Succeeded | Status::Failed | Status::Cancelled => true,
+            Status::Queued | Status::Running => false,
         }
     }
 }
 
-/// Unix seconds as RFC 3339 UTC with milliseconds.
-pub fn rfc3339(unix: f64) -> String {
-    let t = std::time::UNIX_EPOCH + std::time::Duration::from_secs_f64(unix.max(0.0));
-    humantime::format_rfc3339_millis(t).to_string()
+/// Why a job failed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct JobError {
+    /// Machine-readable: `non_finite`, `limit_exceeded` or `internal`.
+    pub code: ErrorCode,
+    /// For people.
+    pub message: String,
 }
 
 /// Now, in unix seconds.
@@ -196,8 +120,25 @@ mod tests {
     }
 
     #[test]
-    fn timestamps_are_rfc3339_utc() {
-        assert_eq!(rfc3339(0.0), "1970-01-01T00:00:00.000Z");
-        assert_eq!(rfc3339(1_700_000_000.25), "2023-11-14T22:13:20.250Z");
+    fn ids_parse_only_as_written() {
+        let id = JobId::generate();
+        let text = id.to_string();
+        assert_eq!(text.len(), 36);
+        assert_eq!(JobId::parse(&text), Some(id));
+        assert_eq!(JobId::parse(&text.to_uppercase()), None);
+        assert_eq!(JobId::parse(&text.replace('-', "")), None);
+        assert_eq!(JobId::parse("not-an-id"), None);
+    }
+
+    #[test]
+    fn a_job_error_is_a_code_and_a_message() {
+        let e = JobError {
+            code: ErrorCode::LimitExceeded,
+            message: "too long".into(),
+        };
+        assert_eq!(
+            serde_json::to_string(&e).expect("serialises"),
+            r#"{"code":"limit_exceeded","message":"too long"}"#
+        );
     }
 }

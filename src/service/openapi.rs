@@ -1,13 +1,16 @@
 //! The OpenAPI document, generated from the handlers' annotations and the
 //! API types (`utoipa`), and the job spec's JSON Schema, generated from the
-//! core's serde types with the same derive. `api/openapi.yaml` and
-//! `api/job.schema.json` are these, checked in; a test fails when they
-//! drift (regenerate with `drapery openapi --write api`).
+//! core's serde types with the same derive; and the two routes that serve
+//! them. `api/openapi.yaml` and `api/job.schema.json` are these, checked
+//! in; a test fails when they drift (regenerate with
+//! `drapery openapi --write api`).
 
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::{Modify, OpenApi, ToSchema};
 
-use super::{api, error, job, ops, stream};
+use super::{api, error, ops, protocol, stream, view};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -20,7 +23,10 @@ use super::{api, error, job, ops, stream};
         api::submit, api::list, api::get, api::cancel, api::frame, api::result,
         stream::stream, ops::healthz, ops::readyz, ops::metrics,
     ),
-    components(schemas(job::Job, job::JobList, error::ErrorResponse, api::FrameJson)),
+    components(schemas(
+        view::Job, view::JobList, error::ErrorResponse, api::FrameJson,
+        protocol::StreamMessage,
+    )),
     modifiers(&Security),
     tags(
         (name = "jobs", description = "Submit, list, inspect and cancel jobs"),
@@ -65,6 +71,20 @@ pub fn json() -> String {
 /// The OpenAPI document as YAML (`api/openapi.yaml`).
 pub fn yaml() -> String {
     document().to_yaml().unwrap_or_default()
+}
+
+/// `GET /openapi.json`: the OpenAPI document.
+pub async fn serve_document() -> Response {
+    ([(header::CONTENT_TYPE, "application/json")], json()).into_response()
+}
+
+/// `GET /job.schema.json`: the job spec's JSON Schema.
+pub async fn serve_job_schema() -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/schema+json")],
+        job_schema(),
+    )
+        .into_response()
 }
 
 /// The job spec's JSON Schema (draft 2020-12), `api/job.schema.json`:

@@ -1,7 +1,4 @@
-//! Operations endpoints: liveness, readiness, Prometheus metrics, the
-//! OpenAPI document.
-
-use std::sync::Arc;
+//! Operations endpoints: liveness, readiness, Prometheus metrics.
 
 use axum::Json;
 use axum::extract::State;
@@ -10,7 +7,8 @@ use axum::response::{IntoResponse, Response};
 use serde_json::json;
 
 use super::error::ApiError;
-use super::state::Shared;
+use super::jobs::Fault;
+use super::state::AppState;
 
 /// Liveness: the process serves requests.
 #[utoipa::path(get, path = "/healthz", tag = "operations",
@@ -25,12 +23,15 @@ pub async fn healthz() -> Json<serde_json::Value> {
         (status = 200, description = "Ready", content_type = "application/json", body = Object),
         (status = 503, description = "Shutting down or store unavailable", content_type = "application/json", body = Object),
     ))]
-pub async fn readyz(State(shared): State<Arc<Shared>>) -> Response {
-    let s = Arc::clone(&shared);
-    let store_ok = tokio::task::spawn_blocking(move || s.store.count_by_status().is_ok())
-        .await
-        .unwrap_or(false);
-    let ready = store_ok && !shared.is_stopping();
+pub async fn readyz(State(state): State<AppState>) -> Response {
+    let jobs = &state.jobs;
+    let store_ok = {
+        let jobs = std::sync::Arc::clone(jobs);
+        tokio::task::spawn_blocking(move || jobs.store_ok())
+            .await
+            .unwrap_or(false)
+    };
+    let ready = store_ok && !jobs.is_stopping();
     let status = if ready {
         StatusCode::OK
     } else {
@@ -39,10 +40,10 @@ pub async fn readyz(State(shared): State<Arc<Shared>>) -> Response {
     let body = json!({
         "status": if ready { "ready" } else { "not_ready" },
         "store": store_ok,
-        "stopping": shared.is_stopping(),
-        "workers": shared.config.workers,
-        "queue_depth": shared.queue.len(),
-        "queue_capacity": shared.config.queue_capacity,
+        "stopping": jobs.is_stopping(),
+        "workers": state.config.workers,
+        "queue_depth": jobs.queued_count(),
+        "queue_capacity": state.config.queue_capacity,
     });
     (status, Json(body)).into_response()
 }
@@ -50,11 +51,12 @@ pub async fn readyz(State(shared): State<Arc<Shared>>) -> Response {
 /// Prometheus metrics (OpenMetrics text).
 #[utoipa::path(get, path = "/metrics", tag = "operations",
     responses((status = 200, description = "OpenMetrics text", content_type = "application/openmetrics-text", body = String)))]
-pub async fn metrics(State(shared): State<Arc<Shared>>) -> Result<Response, ApiError> {
-    let s = Arc::clone(&shared);
-    let counts = tokio::task::spawn_blocking(move || s.store.count_by_status()).await??;
-    let busy = shared.running().len();
-    let text = shared.metrics.render(&counts, shared.queue.len(), busy);
+pub async fn metrics(State(state): State<AppState>) -> Result<Response, ApiError> {
+    let jobs = std::sync::Arc::clone(&state.jobs);
+    let text = tokio::task::spawn_blocking(move || jobs.metrics_text())
+        .await
+        .map_err(Fault::from)?
+        .map_err(Fault::from)?;
     Ok((
         [(
             header::CONTENT_TYPE,
@@ -63,22 +65,4 @@ pub async fn metrics(State(shared): State<Arc<Shared>>) -> Result<Response, ApiE
         text,
     )
         .into_response())
-}
-
-/// The OpenAPI document.
-pub async fn openapi_json() -> Response {
-    (
-        [(header::CONTENT_TYPE, "application/json")],
-        super::openapi::json(),
-    )
-        .into_response()
-}
-
-/// The job spec's JSON Schema.
-pub async fn job_schema() -> Response {
-    (
-        [(header::CONTENT_TYPE, "application/schema+json")],
-        super::openapi::job_schema(),
-    )
-        .into_response()
 }

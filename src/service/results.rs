@@ -1,5 +1,5 @@
-//! Downloads of a finished job (`/result`) and the binary frame layout
-//! shared by `/frames/{n}` and the stream.
+//! Downloads of an ended job (`/result`): its stored frames as a zip of
+//! OBJ files, a PC2 point cache or a binary glTF.
 
 use std::io::{Cursor, Write};
 
@@ -7,7 +7,9 @@ use drapery_sim::cloth::Grid;
 use drapery_sim::export::{Pc2Writer, write_glb, write_obj};
 use drapery_sim::math::Vec3;
 
-use super::store::{JobRow, Store};
+use super::frame_bytes::decode_positions;
+use super::store::{JobRow, Store, StoreError};
+use crate::specfile::SpecLoadError;
 
 /// Download formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,6 +23,16 @@ pub enum Format {
 }
 
 impl Format {
+    /// The format named `obj`, `pc2` or `glb`.
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "obj" => Some(Format::Obj),
+            "pc2" => Some(Format::Pc2),
+            "glb" => Some(Format::Glb),
+            _ => None,
+        }
+    }
+
     pub fn extension(self) -> &'static str {
         match self {
             Format::Obj => "zip",
@@ -38,26 +50,17 @@ impl Format {
     }
 }
 
-/// A binary frame: frame index u32, vertex count u32, time f64
-/// (little-endian), then the stored f32 xyz block.
-pub fn binary_frame(n: u64, time: f64, positions: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(16 + positions.len());
-    out.extend_from_slice(&(n as u32).to_le_bytes());
-    out.extend_from_slice(&((positions.len() / 12) as u32).to_le_bytes());
-    out.extend_from_slice(&time.to_le_bytes());
-    out.extend_from_slice(positions);
-    out
-}
-
-/// The stored f32 xyz block as points.
-pub fn decode_positions(bytes: &[u8]) -> Vec<[f32; 3]> {
-    bytes
-        .chunks_exact(12)
-        .map(|c| {
-            let f = |k: usize| f32::from_le_bytes([c[k], c[k + 1], c[k + 2], c[k + 3]]);
-            [f(0), f(4), f(8)]
-        })
-        .collect()
+/// Why a download could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("stored spec no longer loads: {0}")]
+    Scene(SpecLoadError),
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Zip(#[from] zip::result::ZipError),
 }
 
 fn to_vec3(points: &[[f32; 3]]) -> Vec<Vec3> {
@@ -68,8 +71,8 @@ fn to_vec3(points: &[[f32; 3]]) -> Vec<Vec3> {
 }
 
 /// The job's stored frames in `format`.
-pub fn build(store: &Store, row: &JobRow, format: Format) -> anyhow::Result<Vec<u8>> {
-    let scene = row.scene()?;
+pub fn build(store: &Store, row: &JobRow, format: Format) -> Result<Vec<u8>, ExportError> {
+    let scene = row.scene().map_err(ExportError::Scene)?;
     let grid = Grid::new(&scene.cloth, scene.material.density);
     let triangles = grid.triangles();
     match format {
@@ -77,33 +80,34 @@ pub fn build(store: &Store, row: &JobRow, format: Format) -> anyhow::Result<Vec<
             let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
             let options = zip::write::SimpleFileOptions::default()
                 .compression_method(zip::CompressionMethod::Deflated);
-            store.each_frame(row.seq, |f| {
-                zip.start_file(format!("frames/frame_{:05}.obj", f.n), options)
-                    .map_err(std::io::Error::other)?;
+            store.each_frame(row.id, |f| {
+                zip.start_file(format!("frames/frame_{:05}.obj", f.n), options)?;
                 let mut obj = Vec::new();
                 write_obj(
                     &mut obj,
                     &to_vec3(&decode_positions(&f.positions)),
                     &triangles,
                 )?;
-                zip.write_all(&obj)
+                zip.write_all(&obj)?;
+                Ok::<_, ExportError>(())
             })?;
             Ok(zip.finish()?.into_inner())
         }
         Format::Pc2 => {
             let mut w = Pc2Writer::new(Vec::new(), grid.len(), row.frames_done as usize)?;
-            store.each_frame(row.seq, |f| {
-                w.write_frame(&to_vec3(&decode_positions(&f.positions)))
+            store.each_frame(row.id, |f| {
+                w.write_frame(&to_vec3(&decode_positions(&f.positions)))?;
+                Ok::<_, ExportError>(())
             })?;
             Ok(w.finish()?)
         }
         Format::Glb => {
             let mut times = Vec::new();
             let mut frames = Vec::new();
-            store.each_frame(row.seq, |f| {
+            store.each_frame(row.id, |f| {
                 times.push(f.time);
                 frames.push(decode_positions(&f.positions));
-                Ok(())
+                Ok::<_, ExportError>(())
             })?;
             let mut out = Vec::new();
             write_glb(&mut out, &triangles, &times, &frames)?;
@@ -117,18 +121,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn binary_frame_layout() {
-        let pos: Vec<u8> = [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0]
-            .iter()
-            .flat_map(|x| x.to_le_bytes())
-            .collect();
-        let b = binary_frame(7, 0.5, &pos);
-        assert_eq!(&b[0..4], &7u32.to_le_bytes());
-        assert_eq!(&b[4..8], &2u32.to_le_bytes());
-        assert_eq!(&b[8..16], &0.5f64.to_le_bytes());
-        assert_eq!(
-            decode_positions(&b[16..]),
-            [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
-        );
+    fn formats_parse_by_name() {
+        for f in [Format::Obj, Format::Pc2, Format::Glb] {
+            let name = match f {
+                Format::Obj => "obj",
+                Format::Pc2 => "pc2",
+                Format::Glb => "glb",
+            };
+            assert_eq!(Format::parse(name), Some(f));
+        }
+        assert_eq!(Format::parse("fbx"), None);
     }
 }

@@ -1,28 +1,22 @@
-//! `GET /v1/jobs/{id}/stream`: the WebSocket protocol of DESIGN.md.
-//!
-//! `hello`, then per frame a `stats` text message and a binary frame, then
-//! `done`, `failed` or `cancelled`. Every client reads frames from the
-//! store at its own pace, starting at `?from=N`, and waits on the job's
-//! watch channel only when it has caught up; so a stalled client holds
-//! nothing but its own socket, and no client can miss a frame.
-
-use std::sync::Arc;
+//! `GET /v1/jobs/{id}/stream`: the WebSocket protocol of DESIGN.md, over a
+//! job's [`Subscription`]: `hello`, then per frame a `stats` text message
+//! and a binary frame, then `done`, `failed` or `cancelled` (or
+//! `interrupted` at a shutdown). The messages are [`StreamMessage`]s; the
+//! pacing (a slow client never slows the solver) is the subscription's.
 
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Extension, Path, Query, State};
-use axum::response::IntoResponse;
-use axum::response::Response;
+use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
-use serde_json::json;
 use utoipa::IntoParams;
 
-use super::api::visible_job;
-use super::auth::Owner;
 use super::error::{ApiError, ErrorResponse};
-use super::job::{Job, Status};
-use super::results::binary_frame;
-use super::state::Shared;
+use super::frame_bytes::binary_frame;
+use super::jobs::{Event, Fault, Subscription};
+use super::keys::Owner;
+use super::protocol::{Interrupted, Stats, StreamMessage};
+use super::state::AppState;
 
 /// Where to start.
 #[derive(Debug, Deserialize, IntoParams)]
@@ -34,6 +28,13 @@ pub struct StreamQuery {
 }
 
 /// Stream a job's frames over WebSocket (live, or replayed when ended).
+///
+/// Text messages are `StreamMessage`s (schema
+/// `#/components/schemas/StreamMessage`): `hello` first, then for each
+/// frame a `stats` message followed by a binary frame (frame u32, vertex
+/// count u32, time f64, little-endian; then f32 x, y, z per particle),
+/// then `done`, `failed` or `cancelled`; `interrupted` if the server shuts
+/// down first.
 #[utoipa::path(
     get, path = "/v1/jobs/{id}/stream", tag = "frames",
     params(("id" = String, Path, description = "Job id"), StreamQuery),
@@ -45,119 +46,69 @@ pub struct StreamQuery {
     security(("api_key" = []))
 )]
 pub async fn stream(
-    State(shared): State<Arc<Shared>>,
+    State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     Query(q): Query<StreamQuery>,
     ws: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
 ) -> Result<Response, ApiError> {
-    // Subscribe before reading the job, so an end between the two is seen.
-    let live = shared.hub.subscribe(&id);
-    let row = visible_job(&shared, &owner, id).await?;
-    let from = q.from.unwrap_or(0);
+    let sub = state
+        .jobs
+        .subscribe(&owner, &id, q.from.unwrap_or(0))
+        .await?;
     // The job is checked first, so a missing one is 404 for any client.
     let ws = match ws {
         Ok(ws) => ws,
         Err(e) => return Ok(e.into_response()),
     };
     Ok(ws.on_upgrade(move |socket| async move {
-        if let Err(e) = serve(socket, &shared, row.seq, row.id.clone(), from, live).await {
-            tracing::debug!(id = %row.id, error = %e, "stream ended early");
+        let id = sub.id();
+        if let Err(e) = send(socket, sub).await {
+            tracing::debug!(%id, error = %e, "stream ended early");
         }
     }))
 }
 
-async fn serve(
-    mut socket: WebSocket,
-    shared: &Arc<Shared>,
-    seq: i64,
-    id: String,
-    from: u64,
-    mut live: Option<tokio::sync::watch::Receiver<super::hub::Live>>,
-) -> anyhow::Result<()> {
-    let s = Arc::clone(shared);
-    let hello = tokio::task::spawn_blocking(move || s.store.hello(seq)).await??;
+/// Why a stream stopped before its end.
+#[derive(Debug, thiserror::Error)]
+enum StreamError {
+    #[error(transparent)]
+    Job(#[from] Fault),
+    /// The client went away.
+    #[error(transparent)]
+    Socket(#[from] axum::Error),
+    #[error("the job ended with status {0}, which is no end")]
+    NoEnd(&'static str),
+}
+
+/// Sends the whole stream of `sub` over `socket`.
+async fn send(mut socket: WebSocket, mut sub: Subscription) -> Result<(), StreamError> {
     socket
-        .send(Message::Text(hello.unwrap_or_default().into()))
+        .send(Message::Text(sub.hello().await?.into()))
         .await?;
-    let mut next = from;
-    loop {
-        // What is stored now, and whether more can come.
-        let (frames, status) = match &mut live {
-            Some(rx) => {
-                let l = *rx.borrow_and_update();
-                (l.frames, l.status)
+    while let Some(event) = sub.next().await? {
+        match event {
+            Event::Frame(f) => {
+                let stats = StreamMessage::Stats(Stats::new(f.n, &f.stats));
+                socket.send(Message::Text(stats.to_json().into())).await?;
+                socket
+                    .send(Message::Binary(
+                        binary_frame(f.n, f.time, &f.positions).into(),
+                    ))
+                    .await?;
             }
-            None => {
-                let s = Arc::clone(shared);
-                let id = id.clone();
-                let row = tokio::task::spawn_blocking(move || s.store.job(&id))
-                    .await??
-                    .ok_or_else(|| anyhow::anyhow!("job vanished"))?;
-                (row.frames_done, row.status)
+            Event::End(end) => {
+                let status = end.status.as_str();
+                let message = StreamMessage::end(end).ok_or(StreamError::NoEnd(status))?;
+                socket.send(Message::Text(message.to_json().into())).await?;
+                socket.send(Message::Close(None)).await?;
             }
-        };
-        while next < frames {
-            let s = Arc::clone(shared);
-            let n = next;
-            let Some(f) = tokio::task::spawn_blocking(move || s.store.frame(seq, n)).await?? else {
-                break;
-            };
-            let mut stats: serde_json::Value = serde_json::from_str(&f.stats).unwrap_or_default();
-            stats["type"] = json!("stats");
-            stats["frame"] = json!(f.n);
-            socket.send(Message::Text(stats.to_string().into())).await?;
-            socket
-                .send(Message::Binary(
-                    binary_frame(f.n, f.time, &f.positions).into(),
-                ))
-                .await?;
-            next += 1;
-        }
-        if status.is_terminal() && next >= frames {
-            let s = Arc::clone(shared);
-            let id = id.clone();
-            let row = tokio::task::spawn_blocking(move || s.store.job(&id)).await??;
-            let job = row.as_ref().map(Job::from_row);
-            // The protocol names success `done`; the other ends keep the
-            // status's name.
-            let kind = match status {
-                Status::Succeeded => "done",
-                other => other.as_str(),
-            };
-            let end = json!({
-                "type": kind,
-                "status": status,
-                "frames": frames,
-                "error": job.as_ref().and_then(|j| j.error.clone()),
-                "stats": job.as_ref().and_then(|j| j.stats.clone()),
-            });
-            socket.send(Message::Text(end.to_string().into())).await?;
-            socket.send(Message::Close(None)).await?;
-            return Ok(());
-        }
-        let closed = match &mut live {
-            Some(rx) => rx.changed().await.is_err(),
-            None => false,
-        };
-        match &live {
-            // The channel closed: the job ended (its last value says so)
-            // or the server is shutting down.
-            Some(rx) if closed => {
-                if !rx.borrow().status.is_terminal() {
-                    let bye = json!({"type": "interrupted", "message": "the server is shutting down; reconnect with ?from=N"});
-                    socket.send(Message::Text(bye.to_string().into())).await?;
-                    socket.send(Message::Close(None)).await?;
-                    return Ok(());
-                }
-                live = None;
+            Event::Interrupted => {
+                let bye = StreamMessage::Interrupted(Interrupted::shutdown());
+                socket.send(Message::Text(bye.to_json().into())).await?;
+                socket.send(Message::Close(None)).await?;
             }
-            Some(_) => {}
-            None if status == Status::Queued || status == Status::Running => {
-                // A job this process does not track cannot progress.
-                anyhow::bail!("job {id} is {} but not tracked", status.as_str());
-            }
-            None => {}
         }
     }
+    Ok(())
 }

@@ -4,10 +4,19 @@
 use drapery_sim::spec::{Limits, Scene, Spec};
 use drapery_studies::runner::{self, Outcome, RunOptions};
 
+/// Peak resident memory of this process so far (`VmHWM`), MiB; `None`
+/// where `/proc` does not say.
+pub fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
 /// Reads and parses a spec file (errors name the file and the field);
 /// validation comes per run, with each run's settings.
 pub fn read_spec(path: &std::path::Path) -> anyhow::Result<Spec> {
-    let text = crate::commands::read_spec(path)?;
+    let text = crate::commands::files::read_spec(path)?;
     crate::specfile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 

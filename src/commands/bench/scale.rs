@@ -12,11 +12,10 @@ use anyhow::Context;
 use drapery_sim::spec::{PinEntry, Spec};
 use std::process::ExitCode;
 
+use super::csvfile::write_csv;
 use super::fit::power_law;
-use super::peak_rss_mib;
 use super::plot::{Series, Style, loglog};
-use super::runner;
-use super::write_csv;
+use super::runner::{self, peak_rss_mib};
 use crate::cli::ScaleArgs;
 
 /// The default scene: `examples/scenes/sphere-drape-30.json`.

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use drapery_studies::stress::{self, Outcome};
 
-use super::write_csv;
+use super::csvfile::write_csv;
 use crate::cli::StressArgs;
 
 /// Runs the suite.

@@ -6,7 +6,7 @@
 //! cloth pulled at 0.5 .. 8 m/s), and geometry finer than the cloth (a
 //! 2 mm blade, a bed of needles, a spinning sphere with friction).
 
-use super::Case;
+use super::case::Case;
 use drapery_sim::spec::{
     BoxShape, ClothSpec, Keyframe, MaterialParams, MaterialSpec, MeshSource, Motion, Obstacle,
     PinEntry, PinGroup, Plane, SolverSpec, Spec, Sphere, TimeStep,

@@ -3,7 +3,7 @@
 
 use drapery_sim::math::Vec3;
 
-use super::sweeps::{Row, Sweep};
+use super::row::{Row, Sweep};
 use crate::commands::bench::fit::power_law;
 
 /// Position error of a run against another, over the diagonal.

@@ -5,7 +5,7 @@
 //! - The **reference** is the same scene at a much smaller step (default:
 //!   the smallest swept step / 8) and a tight CG tolerance (1e-10), or one
 //!   saved by an earlier study (`--reference DIR`).
-//! - The **sweeps** ([`sweeps::Sweep`]): the step halved from `--dt-max`
+//! - The **sweeps** ([`row::Sweep`]): the step halved from `--dt-max`
 //!   at the tight tolerance (the time discretisation's error, plus what
 //!   contact events add), and the CG tolerance at a fixed step (against
 //!   the tight run at that step, the solver's error alone:
@@ -18,12 +18,13 @@
 //! scene's fps, lowered to `1 / dt_max` if that is longer, since a step
 //! cannot be longer than a frame.
 //!
-//! `reference` makes or reads the reference, `sweeps` runs, `analysis`
-//! concludes, `output` writes.
+//! `reference` makes or reads the reference, `sweeps` runs, `row` is what
+//! a run leaves, `analysis` concludes, `output` writes.
 
 mod analysis;
 mod output;
 mod reference;
+mod row;
 mod sweeps;
 
 use std::process::ExitCode;
@@ -36,7 +37,8 @@ use super::runner;
 use crate::cli::PrecisionArgs;
 use analysis::{mark_pareto, position_error};
 use reference::Reference;
-use sweeps::{Row, Sweep, measure, step_of, with};
+use row::{Row, Sweep};
+use sweeps::{measure, step_of, with};
 
 /// Runs the study; writes `precision.csv` and `precision.svg`, the
 /// per-frame `precision-frames.csv` and `.svg`, and (unless it was given)

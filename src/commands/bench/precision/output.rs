@@ -6,10 +6,10 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::analysis::{orders, orders_over_time, solver_error_exponent};
-use super::sweeps::{Row, Sweep};
+use super::row::{Row, Sweep};
 use crate::cli::PrecisionArgs;
+use crate::commands::bench::csvfile::write_csv;
 use crate::commands::bench::plot::{Series, Style, loglog};
-use crate::commands::bench::write_csv;
 
 /// A line of `precision.csv`.
 #[derive(Serialize)]

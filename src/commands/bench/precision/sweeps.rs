@@ -1,60 +1,11 @@
-//! The runs of a study: which settings each sweep varies, and one measured
-//! run as a [`Row`].
-
-use drapery_sim::math::Vec3;
-use drapery_sim::spec::{Scene, Spec, TimeStep, TimeStepping};
-use serde::Serialize;
+//! The runs of a study: a spec set to a sweep's point, run and measured
+//! into a [`Row`].
 
 use super::analysis::position_error;
+use super::row::{Row, Sweep};
 use crate::commands::bench::runner::{self, median};
-
-/// What a sweep varies.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub enum Sweep {
-    /// The step, halved from `--dt-max`, at the tight tolerance: the time
-    /// discretisation's error (plus what contact events add).
-    #[serde(rename = "dt")]
-    TimeStep,
-    /// The CG tolerance at a fixed step: against the tight run at that
-    /// step, the solver's error alone.
-    #[serde(rename = "tolerance")]
-    Tolerance,
-}
-
-impl Sweep {
-    /// The name in the CSV files and the log.
-    pub fn name(self) -> &'static str {
-        match self {
-            Sweep::TimeStep => "dt",
-            Sweep::Tolerance => "tolerance",
-        }
-    }
-}
-
-/// One measured run of a sweep.
-#[derive(Debug, Clone)]
-pub struct Row {
-    pub sweep: Sweep,
-    /// The step actually taken (the frame divided into whole steps).
-    pub dt: f64,
-    pub tolerance: f64,
-    pub steps: usize,
-    /// Median over the repeats.
-    pub wall_seconds: f64,
-    pub cg_iterations: usize,
-    pub unconverged_solves: usize,
-    pub finite: bool,
-    /// RMS and largest position error against the reference, over the
-    /// cloth's diagonal; NaN for a run that stopped early.
-    pub error_rms: f64,
-    pub error_max: f64,
-    /// Against the tight-tolerance run at the same step (tolerance sweep).
-    pub solver_error_rms: Option<f64>,
-    /// No other run is both faster and more accurate.
-    pub pareto: bool,
-    /// RMS error of each frame after the first, over the diagonal.
-    pub per_frame: Vec<f64>,
-}
+use drapery_sim::math::Vec3;
+use drapery_sim::spec::{Scene, Spec, TimeStep, TimeStepping};
 
 /// `base` with a fixed step `dt` and CG tolerance `tolerance`.
 pub fn with(base: &Spec, dt: f64, tolerance: f64) -> Spec {

@@ -1,5 +1,5 @@
-//! The stream's `hello` message: what a viewer needs before the first
-//! frame — the grid's shape and triangles, and each obstacle as a
+//! The stream's `hello` message of a job: what a viewer needs before the
+//! first frame — the grid's shape and triangles, and each obstacle as a
 //! triangle mesh (at its pose at time 0; each frame's `stats` carries the
 //! poses after that).
 //!
@@ -9,10 +9,13 @@
 use drapery_sim::cloth::Grid;
 use drapery_sim::collision::display_mesh;
 use drapery_sim::spec::{Scene, SpecError};
-use serde_json::json;
 
-/// The hello message of job `id` running `scene`, as JSON text.
-pub fn build(scene: &Scene, id: &str) -> Result<String, SpecError> {
+use crate::service::job::JobId;
+use crate::service::protocol::{Hello, ObstacleMesh};
+
+/// The hello of job `id` running `scene`; an obstacle that cannot be drawn
+/// is an error at its spec path.
+pub fn build(scene: &Scene, id: JobId) -> Result<Hello, SpecError> {
     let grid = Grid::new(&scene.cloth, scene.material.density);
     let diagonal = (scene.cloth.size[0].powi(2) + scene.cloth.size[1].powi(2)).sqrt();
     // Smooth enough to look round, coarse enough to stay small: about a
@@ -24,28 +27,25 @@ pub fn build(scene: &Scene, id: &str) -> Result<String, SpecError> {
             path: format!("obstacles[{k}]"),
             message: e.to_string(),
         })?;
-        let vertices: Vec<[f32; 3]> = mesh
-            .vertices()
-            .iter()
-            .map(|p| [p.x as f32, p.y as f32, p.z as f32])
-            .collect();
-        obstacles.push(json!({
-            "vertices": vertices,
-            "triangles": mesh.triangles(),
-            "moving": o.motion.is_some(),
-        }));
+        obstacles.push(ObstacleMesh {
+            vertices: mesh
+                .vertices()
+                .iter()
+                .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                .collect(),
+            triangles: mesh.triangles().to_vec(),
+            moving: o.motion.is_some(),
+        });
     }
-    Ok(json!({
-        "type": "hello",
-        "job": id,
-        "name": scene.name,
-        "grid": [grid.nu, grid.nv],
-        "vertices": grid.len(),
-        "frames": scene.frames + 1,
-        "fps": scene.fps,
-        "duration": scene.duration,
-        "triangles": grid.triangles(),
-        "obstacles": obstacles,
+    Ok(Hello {
+        job: id.to_string(),
+        name: scene.name.clone(),
+        grid: [grid.nu, grid.nv],
+        vertices: grid.len(),
+        frames: scene.frames + 1,
+        fps: scene.fps,
+        duration: scene.duration,
+        triangles: grid.triangles(),
+        obstacles,
     })
-    .to_string())
 }

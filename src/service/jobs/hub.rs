@@ -13,7 +13,7 @@ use std::sync::Mutex;
 
 use tokio::sync::watch;
 
-use super::job::Status;
+use crate::service::job::{JobId, Status};
 
 /// What a stream client needs to know to catch up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,32 +26,32 @@ pub struct Live {
 /// The channels of jobs that are queued or running in this process.
 #[derive(Debug, Default)]
 pub struct Hub {
-    jobs: Mutex<HashMap<String, watch::Sender<Live>>>,
+    jobs: Mutex<HashMap<JobId, watch::Sender<Live>>>,
 }
 
 impl Hub {
     /// Starts tracking a job.
-    pub fn open(&self, id: &str, live: Live) {
+    pub fn open(&self, id: JobId, live: Live) {
         let (tx, _) = watch::channel(live);
-        self.lock().insert(id.to_owned(), tx);
+        self.lock().insert(id, tx);
     }
 
     /// A receiver for a tracked job; `None` once it ended.
-    pub fn subscribe(&self, id: &str) -> Option<watch::Receiver<Live>> {
-        self.lock().get(id).map(watch::Sender::subscribe)
+    pub fn subscribe(&self, id: JobId) -> Option<watch::Receiver<Live>> {
+        self.lock().get(&id).map(watch::Sender::subscribe)
     }
 
     /// Changes a tracked job's news and wakes its clients.
-    pub fn update(&self, id: &str, f: impl FnOnce(&mut Live)) {
-        if let Some(tx) = self.lock().get(id) {
+    pub fn update(&self, id: JobId, f: impl FnOnce(&mut Live)) {
+        if let Some(tx) = self.lock().get(&id) {
             tx.send_modify(f);
         }
     }
 
     /// Publishes the job's end and stops tracking it; receivers keep the
     /// last value.
-    pub fn close(&self, id: &str, status: Status) {
-        if let Some(tx) = self.lock().remove(id) {
+    pub fn close(&self, id: JobId, status: Status) {
+        if let Some(tx) = self.lock().remove(&id) {
             tx.send_modify(|l| l.status = status);
         }
     }
@@ -61,7 +61,7 @@ impl Hub {
         self.lock().clear();
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, watch::Sender<Live>>> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<JobId, watch::Sender<Live>>> {
         self.jobs.lock().unwrap_or_else(|p| p.into_inner())
     }
 }

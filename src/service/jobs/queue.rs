@@ -9,18 +9,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Condvar, Mutex};
 use std::time::Duration;
 
-/// A job waiting for a worker.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Queued {
-    pub seq: i64,
-    pub id: String,
-}
+use crate::service::job::JobId;
 
 /// FIFO of queued jobs. The capacity for new submissions is checked by
-/// the API under its submission lock (`Shared::submit_lock`).
+/// `Jobs::submit` under its submission lock.
 #[derive(Debug, Default)]
 pub struct Queue {
-    items: Mutex<VecDeque<Queued>>,
+    items: Mutex<VecDeque<JobId>>,
     ready: Condvar,
 }
 
@@ -33,21 +28,21 @@ impl Queue {
     }
 
     /// Adds a job at the back.
-    pub fn push(&self, job: Queued) {
+    pub fn push(&self, job: JobId) {
         self.lock().push_back(job);
         self.ready.notify_one();
     }
 
     /// Removes a waiting job (cancelled); `true` if it was waiting.
-    pub fn remove(&self, seq: i64) -> bool {
+    pub fn remove(&self, id: JobId) -> bool {
         let mut items = self.lock();
         let before = items.len();
-        items.retain(|q| q.seq != seq);
+        items.retain(|q| *q != id);
         items.len() != before
     }
 
     /// The oldest job, waiting for one; `None` once `stop` is set.
-    pub fn pop(&self, stop: &AtomicBool) -> Option<Queued> {
+    pub fn pop(&self, stop: &AtomicBool) -> Option<JobId> {
         let mut items = self.lock();
         loop {
             if stop.load(Ordering::SeqCst) {
@@ -74,7 +69,7 @@ impl Queue {
         self.ready.notify_all();
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, VecDeque<Queued>> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, VecDeque<JobId>> {
         self.items.lock().unwrap_or_else(|p| p.into_inner())
     }
 }
@@ -83,25 +78,19 @@ impl Queue {
 mod tests {
     use super::*;
 
-    fn job(seq: i64) -> Queued {
-        Queued {
-            seq,
-            id: seq.to_string(),
-        }
-    }
-
     #[test]
     fn pops_in_order_without_removed_jobs() {
         let q = Queue::new();
-        q.push(job(1));
-        q.push(job(2));
-        q.push(job(4));
-        assert!(q.remove(2));
-        assert!(!q.remove(2));
+        let [one, two, four] = [JobId::generate(), JobId::generate(), JobId::generate()];
+        q.push(one);
+        q.push(two);
+        q.push(four);
+        assert!(q.remove(two));
+        assert!(!q.remove(two));
         assert_eq!(q.len(), 2);
         let stop = AtomicBool::new(false);
-        assert_eq!(q.pop(&stop), Some(job(1)));
-        assert_eq!(q.pop(&stop), Some(job(4)));
+        assert_eq!(q.pop(&stop), Some(one));
+        assert_eq!(q.pop(&stop), Some(four));
         stop.store(true, Ordering::SeqCst);
         assert_eq!(q.pop(&stop), None, "a set stop flag ends the wait");
     }

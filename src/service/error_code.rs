@@ -1,0 +1,62 @@
+//! The one list of machine-readable error codes. An API error's
+//! `error.code` and a failed job's `error.code` both take their values
+//! from [`ErrorCode`], so a client matches on one closed set, and the
+//! OpenAPI document lists it as an enum.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// Machine-readable error code. Answers to requests: `malformed_json`
+/// (the body is not JSON, 400), `invalid_spec` (JSON but not a valid spec;
+/// `path` names the field, 422), `not_found` (404), `unauthorized` (401),
+/// `payload_too_large` (413), `queue_full` (429, see `Retry-After`),
+/// `conflict` (409), `bad_request` (400), `shutting_down` (503),
+/// `internal` (500). Failed jobs: `non_finite` (the solver produced NaN or
+/// infinity), `limit_exceeded` (the wall-time limit), `internal`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorCode {
+    MalformedJson,
+    InvalidSpec,
+    NotFound,
+    Unauthorized,
+    PayloadTooLarge,
+    QueueFull,
+    Conflict,
+    BadRequest,
+    ShuttingDown,
+    Internal,
+    NonFinite,
+    LimitExceeded,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn codes_are_snake_case_strings() {
+        let names = [
+            (ErrorCode::MalformedJson, "malformed_json"),
+            (ErrorCode::InvalidSpec, "invalid_spec"),
+            (ErrorCode::NotFound, "not_found"),
+            (ErrorCode::Unauthorized, "unauthorized"),
+            (ErrorCode::PayloadTooLarge, "payload_too_large"),
+            (ErrorCode::QueueFull, "queue_full"),
+            (ErrorCode::Conflict, "conflict"),
+            (ErrorCode::BadRequest, "bad_request"),
+            (ErrorCode::ShuttingDown, "shutting_down"),
+            (ErrorCode::Internal, "internal"),
+            (ErrorCode::NonFinite, "non_finite"),
+            (ErrorCode::LimitExceeded, "limit_exceeded"),
+        ];
+        for (code, name) in names {
+            assert_eq!(
+                serde_json::to_value(code).expect("serialises"),
+                serde_json::json!(name)
+            );
+            let back: ErrorCode = serde_json::from_value(serde_json::json!(name)).expect("parses");
+            assert_eq!(back, code);
+        }
+    }
+}

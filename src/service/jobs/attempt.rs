@@ -1,0 +1,158 @@
+//! A worker's side of a job: take the next queued one, start it, record
+//! its frames as they come, and record how the attempt ended. The worker
+//! runs the solver; everything it changes about the job goes through here.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use tracing::{error, info};
+
+use super::lifecycle::Jobs;
+use super::running::RunHandle;
+use crate::service::error_code::ErrorCode;
+use crate::service::job::{JobError, JobId, Status, now};
+use crate::service::protocol::to_json;
+use crate::service::store::{Ending, JobRow, StoreError, StoredFrame};
+
+/// A job a worker has started.
+#[derive(Debug)]
+pub struct Attempt {
+    /// The job as it was when it started.
+    pub row: JobRow,
+    /// Its stop flag and deadline.
+    pub handle: Arc<RunHandle>,
+}
+
+/// How one attempt at a job ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Every frame is stored; the run's statistics summary.
+    Succeeded(String),
+    /// Why, and the statistics of the frames run.
+    Failed(JobError, Option<String>),
+    /// Its owner cancelled it.
+    Cancelled(Option<String>),
+    /// Shutdown: back to the queue, to resume from the checkpoint.
+    Interrupted,
+}
+
+impl Jobs {
+    /// The oldest queued job, waiting for one; `None` once shutting down.
+    pub fn next_queued(&self) -> Option<JobId> {
+        self.queue.pop(self.stopping_flag())
+    }
+
+    /// Starts job `id`: running, with a stop flag and a deadline for what
+    /// is left of its wall time. `None` if it is not queued any more
+    /// (cancelled while it waited).
+    pub fn start(&self, id: JobId) -> Result<Option<Attempt>, StoreError> {
+        let Some(row) = self.store.job(id)? else {
+            return Ok(None);
+        };
+        if row.status != Status::Queued {
+            return Ok(None);
+        }
+        let left = (self.config.max_wall_seconds - row.run_seconds).max(0.0);
+        let deadline =
+            Instant::now() + Duration::try_from_secs_f64(left.min(1e9)).unwrap_or_default();
+        let handle = Arc::new(RunHandle::new(deadline));
+        // The handle is in place before the job is marked running, so a
+        // cancel that finds it running also finds its stop flag; a cancel
+        // that won the race leaves it not queued, and it does not start.
+        self.running.insert(id, Arc::clone(&handle));
+        if !self.store.mark_running(id, now())? {
+            self.running.remove(id);
+            return Ok(None);
+        }
+        self.hub.update(id, |l| l.status = Status::Running);
+        info!(attempt = row.attempts + 1, "job started");
+        Ok(Some(Attempt { row, handle }))
+    }
+
+    /// The latest checkpoint of job `id`: its frame and data.
+    pub fn checkpoint(&self, id: JobId) -> Result<Option<(u64, Vec<u8>)>, StoreError> {
+        self.store.checkpoint(id)
+    }
+
+    /// The statistics JSON of frames `0..=upto` of job `id`.
+    pub fn frame_stats(&self, id: JobId, upto: u64) -> Result<Vec<String>, StoreError> {
+        self.store.frame_stats(id, upto)
+    }
+
+    /// Stores a frame (with the checkpoint taken at it, if any), counts it
+    /// and its solver time per step, and tells the job's streams.
+    pub fn record_frame(
+        &self,
+        id: JobId,
+        frame: &StoredFrame,
+        checkpoint: Option<&[u8]>,
+        seconds_per_step: Option<f64>,
+    ) -> Result<(), StoreError> {
+        self.store.put_frame(id, frame, checkpoint)?;
+        self.metrics.frames.inc();
+        if let Some(s) = seconds_per_step {
+            self.metrics.step_seconds.observe(s);
+        }
+        self.hub
+            .update(id, |l| l.frames = l.frames.max(frame.n + 1));
+        Ok(())
+    }
+
+    /// Records how `attempt` ended after `run_seconds` of running over all
+    /// attempts, and tells its streams.
+    pub fn conclude(
+        &self,
+        attempt: &Attempt,
+        outcome: Outcome,
+        run_seconds: f64,
+    ) -> Result<(), StoreError> {
+        let id = attempt.row.id;
+        self.running.remove(id);
+        let (status, error, stats) = match outcome {
+            Outcome::Interrupted => {
+                self.store.requeue(id, run_seconds)?;
+                self.hub.update(id, |l| l.status = Status::Queued);
+                info!("job interrupted by shutdown; it resumes at the next start");
+                return Ok(());
+            }
+            Outcome::Succeeded(stats) => (Status::Succeeded, None, Some(stats)),
+            Outcome::Cancelled(stats) => (Status::Cancelled, None, stats),
+            Outcome::Failed(e, stats) => (Status::Failed, Some(e), stats),
+        };
+        let error = error.map(|e| to_json(&e));
+        self.store.finish(
+            id,
+            &Ending {
+                status,
+                error: error.as_deref(),
+                stats: stats.as_deref(),
+                finished_at: now(),
+                run_seconds,
+            },
+        )?;
+        self.hub.close(id, status);
+        info!(status = status.as_str(), run_seconds, "job ended");
+        Ok(())
+    }
+
+    /// Fails job `id` for a reason of the service's own (a panic, an end
+    /// that could not be recorded), as well as the store still allows.
+    pub fn fail(&self, id: JobId, message: &str) {
+        self.running.remove(id);
+        let error = to_json(&JobError {
+            code: ErrorCode::Internal,
+            message: message.to_owned(),
+        });
+        let ending = Ending {
+            status: Status::Failed,
+            error: Some(&error),
+            stats: None,
+            finished_at: now(),
+            run_seconds: 0.0,
+        };
+        if let Err(e) = self.store.finish(id, &ending) {
+            error!(error = %e, "could not record the failure either");
+        }
+        self.hub.close(id, Status::Failed);
+    }
+}

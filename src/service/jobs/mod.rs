@@ -1,0 +1,22 @@
+//! The service's domain: jobs from submission to their end, owned by one
+//! type, [`Jobs`]. Request handlers and worker threads call it; it calls
+//! the store, the queue and the live news, and nothing here knows HTTP.
+
+mod attempt;
+mod cancel;
+mod error;
+mod hello;
+mod hub;
+mod lifecycle;
+mod lookup;
+mod queue;
+mod running;
+mod submit;
+mod subscription;
+
+pub use attempt::{Attempt, Outcome};
+pub use error::{Fault, JobsError, ListError, SubmitError};
+pub use lifecycle::Jobs;
+pub use lookup::{ListFilter, Page};
+pub use running::StopReason;
+pub use subscription::{Event, Subscription};

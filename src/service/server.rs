@@ -1,0 +1,256 @@
+//! The service as a whole: [`app`], its routes over an [`AppState`];
+//! [`run`], which serves them on a listener with the workers running until
+//! a shutdown future completes; and [`serve`], `drapery serve` itself.
+//!
+//! Shutdown: when the future completes, no new request is accepted,
+//! in-flight requests finish, streams are told `interrupted`, running jobs
+//! stop at their next frame with a checkpoint (or, past the grace period,
+//! at their next step) and are queued again, and every worker thread is
+//! joined before `run` returns.
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderValue, Method, header};
+use axum::routing::get;
+use tokio::net::TcpListener;
+use tower_http::cors::{AllowOrigin, Any, CorsLayer};
+use tower_http::trace::TraceLayer;
+use tracing::{info, warn};
+
+use super::config::{Config, ConfigError};
+use super::jobs::Jobs;
+use super::state::AppState;
+use super::store::{Store, StoreError};
+use super::{api, auth, openapi, ops, stream, viewer, worker};
+use crate::cli::ServeArgs;
+
+/// How often running jobs are checked against their wall-time limit.
+const DEADLINE_CHECK: Duration = Duration::from_millis(250);
+
+/// Why the service could not start, or stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error("opening the job store in {}", dir.display())]
+    Store {
+        dir: PathBuf,
+        #[source]
+        source: StoreError,
+    },
+    #[error(transparent)]
+    Runtime(std::io::Error),
+    #[error("binding {addr}")]
+    Bind {
+        addr: SocketAddr,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Jobs left by an earlier process could not be queued again.
+    #[error(transparent)]
+    Recover(StoreError),
+    #[error("starting the worker threads")]
+    Workers(#[source] std::io::Error),
+    #[error("a startup task failed: {0}")]
+    Task(tokio::task::JoinError),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
+/// The HTTP routes over `state`.
+pub fn app(state: AppState) -> Router {
+    let v1 = Router::new()
+        .route("/jobs", get(api::list).post(api::submit))
+        .route("/jobs/{id}", get(api::get).delete(api::cancel))
+        .route("/jobs/{id}/frames/{n}", get(api::frame))
+        .route("/jobs/{id}/result", get(api::result))
+        .route("/jobs/{id}/stream", get(stream::stream))
+        .route_layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::require_key,
+        ));
+    let cors = cors(&state.config.cors_origins);
+    let mut app = Router::new()
+        .nest("/v1", v1)
+        .route("/healthz", get(ops::healthz))
+        .route("/readyz", get(ops::readyz))
+        .route("/metrics", get(ops::metrics))
+        .route("/openapi.json", get(openapi::serve_document))
+        .route("/job.schema.json", get(openapi::serve_job_schema))
+        .route("/", get(viewer::index))
+        .route("/assets/{file}", get(viewer::asset))
+        .route("/examples", get(viewer::examples))
+        .route("/examples/{name}", get(viewer::example))
+        .layer(DefaultBodyLimit::max(state.config.max_body_bytes))
+        .layer(
+            TraceLayer::new_for_http().make_span_with(|req: &axum::http::Request<_>| {
+                tracing::info_span!("request", method = %req.method(), path = %req.uri().path())
+            }),
+        )
+        .with_state(state);
+    if let Some(cors) = cors {
+        app = app.layer(cors);
+    }
+    app
+}
+
+fn cors(origins: &[String]) -> Option<CorsLayer> {
+    if origins.is_empty() {
+        return None;
+    }
+    let layer = CorsLayer::new()
+        .allow_methods([Method::GET, Method::POST, Method::DELETE])
+        .allow_headers([header::AUTHORIZATION, header::CONTENT_TYPE, header::ACCEPT])
+        .expose_headers([header::LOCATION, header::RETRY_AFTER]);
+    Some(if origins.iter().any(|o| o == "*") {
+        layer.allow_origin(Any)
+    } else {
+        let list: Vec<HeaderValue> = origins
+            .iter()
+            .filter_map(|o| HeaderValue::from_str(o).ok())
+            .collect();
+        layer.allow_origin(AllowOrigin::list(list))
+    })
+}
+
+/// Serves `state` on `listener` until `shutdown` completes: queues again
+/// the jobs an earlier process left, starts the workers, serves, then
+/// shuts down gracefully and joins the workers.
+pub async fn run(
+    listener: TcpListener,
+    state: AppState,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), ServeError> {
+    let jobs = Arc::clone(&state.jobs);
+    let recovered = {
+        let jobs = Arc::clone(&jobs);
+        tokio::task::spawn_blocking(move || jobs.recover())
+            .await
+            .map_err(ServeError::Task)?
+            .map_err(ServeError::Recover)?
+    };
+    let addr = listener.local_addr()?;
+    let workers = worker::spawn(&jobs, state.config.workers).map_err(|e| {
+        // The ones started end at their next look at the queue.
+        jobs.begin_shutdown();
+        ServeError::Workers(e)
+    })?;
+    info!(
+        %addr,
+        workers = state.config.workers,
+        recovered,
+        auth = state.config.keys.enabled(),
+        viewer_bytes = viewer::load_size(),
+        "listening"
+    );
+    let reaper = {
+        let jobs = Arc::clone(&jobs);
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(DEADLINE_CHECK);
+            loop {
+                tick.tick().await;
+                jobs.enforce_deadlines();
+            }
+        })
+    };
+    let stopping = {
+        let jobs = Arc::clone(&jobs);
+        async move {
+            shutdown.await;
+            info!("shutdown requested: no new requests; running jobs checkpoint");
+            jobs.begin_shutdown();
+        }
+    };
+    let served = axum::serve(listener, app(state.clone()))
+        .with_graceful_shutdown(stopping)
+        .await;
+    reaper.abort();
+    // Also when serving failed: the workers only end once told to.
+    jobs.begin_shutdown();
+    drain(&jobs, &state.config, workers).await;
+    info!("stopped");
+    Ok(served?)
+}
+
+/// Waits for workers to stop at a frame (and checkpoint) within the grace
+/// period; then asks the stragglers to stop at their next step, and joins
+/// every worker.
+async fn drain(jobs: &Jobs, config: &Config, workers: Vec<JoinHandle<()>>) {
+    let grace =
+        Duration::try_from_secs_f64(config.shutdown_grace.max(0.0)).unwrap_or(Duration::MAX);
+    let start = Instant::now();
+    while jobs.running_count() > 0 && start.elapsed() < grace {
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let late = jobs.running_count();
+    if late > 0 {
+        warn!(
+            jobs = late,
+            "grace period over: stopping jobs mid-frame; they resume from their last checkpoint"
+        );
+        jobs.stop_all_running();
+    }
+    let _ = tokio::task::spawn_blocking(move || {
+        for w in workers {
+            let _ = w.join();
+        }
+    })
+    .await;
+}
+
+/// `drapery serve`: runs the service on `args.addr` until SIGTERM or
+/// SIGINT.
+pub fn serve(args: &ServeArgs) -> Result<(), ServeError> {
+    let config = Config::from_args(args)?;
+    let store = Store::open(&args.data).map_err(|source| ServeError::Store {
+        dir: args.data.clone(),
+        source,
+    })?;
+    info!(data = %args.data.display(), "job store opened");
+    let state = AppState::new(config, store);
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .thread_name("http")
+        .build()
+        .map_err(ServeError::Runtime)?;
+    runtime.block_on(async {
+        let listener = TcpListener::bind(args.addr)
+            .await
+            .map_err(|source| ServeError::Bind {
+                addr: args.addr,
+                source,
+            })?;
+        // Tests and scripts read the address from the first stdout line.
+        println!("listening on http://{}", listener.local_addr()?);
+        run(listener, state, shutdown_signal()).await
+    })
+}
+
+/// SIGINT or SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {}
+        () = term => {}
+    }
+}

@@ -1,0 +1,121 @@
+//! The database handle: one writer connection and one reader connection.
+//!
+//! NOTE: not a pool. `r2d2_sqlite` (the pool crate for SQLite) is built on
+//! `rusqlite` 0.40 and this crate uses 0.41, so it would bring a second
+//! SQLite. One reader behind a mutex serves the short reads (a job row, a
+//! frame); the one long read, a whole job's frames for a download, opens
+//! its own connection so it holds up no one (WAL readers do not block each
+//! other or the writer).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use rusqlite::Connection;
+use rusqlite::types::{FromSql, FromSqlError, FromSqlResult, ToSql, ToSqlOutput, ValueRef};
+
+use super::schema::{SCHEMA, open_connection};
+use crate::service::job::{JobId, Status};
+
+/// Why the store failed.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// The data directory cannot be created.
+    #[error("creating {}: {error}", dir.display())]
+    CreateDir { dir: PathBuf, error: std::io::Error },
+    /// The database cannot be opened (not a database, locked, no space).
+    #[error("{0}")]
+    Open(rusqlite::Error),
+    /// A query failed (disk full, corrupt file).
+    #[error("job store: {0}")]
+    Sqlite(rusqlite::Error),
+}
+
+impl From<rusqlite::Error> for StoreError {
+    fn from(e: rusqlite::Error) -> Self {
+        Self::Sqlite(e)
+    }
+}
+
+pub(super) type Result<T> = std::result::Result<T, StoreError>;
+
+/// The database.
+#[derive(Debug)]
+pub struct Store {
+    path: PathBuf,
+    writer: Mutex<Connection>,
+    reader: Mutex<Connection>,
+}
+
+impl Store {
+    /// Opens (creating if needed) the store in `dir`.
+    pub fn open(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir).map_err(|error| StoreError::CreateDir {
+            dir: dir.to_owned(),
+            error,
+        })?;
+        let path = dir.join("drapery.sqlite3");
+        let writer = open_connection(&path).map_err(StoreError::Open)?;
+        writer.execute_batch(SCHEMA).map_err(StoreError::Open)?;
+        let reader = open_connection(&path).map_err(StoreError::Open)?;
+        Ok(Self {
+            path,
+            writer: Mutex::new(writer),
+            reader: Mutex::new(reader),
+        })
+    }
+
+    /// Runs `f` on the writer connection.
+    pub(super) fn write<T>(
+        &self,
+        f: impl FnOnce(&mut Connection) -> rusqlite::Result<T>,
+    ) -> Result<T> {
+        let mut conn = self.writer.lock().unwrap_or_else(|p| p.into_inner());
+        Ok(f(&mut conn)?)
+    }
+
+    /// Runs `f` on the reader connection.
+    pub(super) fn read<T>(&self, f: impl FnOnce(&Connection) -> rusqlite::Result<T>) -> Result<T> {
+        let conn = self.reader.lock().unwrap_or_else(|p| p.into_inner());
+        Ok(f(&conn)?)
+    }
+
+    /// A connection of its own, for a read that takes long.
+    pub(super) fn own_reader(&self) -> Result<Connection> {
+        Ok(open_connection(&self.path)?)
+    }
+}
+
+/// Ids are stored as the text the API shows.
+impl ToSql for JobId {
+    fn to_sql(&self) -> rusqlite::Result<ToSqlOutput<'_>> {
+        Ok(ToSqlOutput::from(self.to_string()))
+    }
+}
+
+impl FromSql for JobId {
+    fn column_result(value: ValueRef<'_>) -> FromSqlResult<Self> {
+        let text = value.as_str()?;
+        JobId::parse(text).ok_or_else(|| FromSqlError::Other(format!("bad job id {text:?}").into()))
+    }
+}
+
+impl ToSql for Status {
+    fn to_sql(&self) -> rusqlite::Result<ToSqlOutput<'_>> {
+        Ok(ToSqlOutput::from(self.as_str()))
+    }
+}
+
+impl FromSql for Status {
+    fn column_result(value: ValueRef<'_>) -> FromSqlResult<Self> {
+        let text = value.as_str()?;
+        Status::parse(text)
+            .ok_or_else(|| FromSqlError::Other(format!("unknown job status {text:?}").into()))
+    }
+}
+
+/// A fresh store in a temporary directory.
+#[cfg(test)]
+pub(super) fn temp_store() -> Store {
+    let d = std::env::temp_dir().join(format!("drapery-store-{}", uuid::Uuid::now_v7()));
+    Store::open(&d).expect("opens")
+}

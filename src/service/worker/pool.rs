@@ -1,0 +1,167 @@
+//! Worker threads: each takes the next queued job, runs one attempt at it,
+//! and goes on to the next until the service shuts down.
+//!
+//! A job resumes from its stored checkpoint when it has one (after a
+//! restart or a shutdown), so frames already stored are not redone except
+//! those after the checkpoint, which come out identical (the checkpoint
+//! holds everything the steps read) and replace their copies. A panic in a
+//! job fails that job only; the worker goes on to the next.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use tracing::{error, info_span};
+
+use super::run::simulate;
+use crate::service::error_code::ErrorCode;
+use crate::service::job::{JobError, JobId};
+use crate::service::jobs::{Jobs, Outcome};
+use crate::service::store::StoreError;
+
+/// Starts `n` workers; they end once the service shuts down (join them).
+pub fn spawn(jobs: &Arc<Jobs>, n: usize) -> std::io::Result<Vec<JoinHandle<()>>> {
+    (0..n)
+        .map(|k| {
+            let jobs = Arc::clone(jobs);
+            std::thread::Builder::new()
+                .name(format!("worker-{k}"))
+                .spawn(move || work(&jobs, k))
+        })
+        .collect()
+}
+
+fn work(jobs: &Jobs, k: usize) {
+    while let Some(id) = jobs.next_queued() {
+        let span = info_span!("job", %id, worker = k);
+        let _entered = span.enter();
+        guarded(jobs, id, || attempt(jobs, id));
+    }
+}
+
+/// Runs one attempt; a panic, or an error that kept its end from being
+/// recorded, fails that job alone and leaves the worker running.
+fn guarded(jobs: &Jobs, id: JobId, f: impl FnOnce() -> Result<(), StoreError>) {
+    let failure = match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(())) => return,
+        Ok(Err(e)) => format!("the job's end could not be recorded: {e}"),
+        Err(panic) => {
+            let message = panic
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_owned())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            format!("the solver panicked: {message}")
+        }
+    };
+    error!(%failure, "job failed");
+    jobs.fail(id, &failure);
+}
+
+/// Starts job `id` if it is still queued, runs it, records the outcome.
+fn attempt(jobs: &Jobs, id: JobId) -> Result<(), StoreError> {
+    let Some(attempt) = jobs.start(id)? else {
+        return Ok(());
+    };
+    let started = Instant::now();
+    let outcome = simulate(jobs, &attempt).unwrap_or_else(|e| {
+        Outcome::Failed(
+            JobError {
+                code: ErrorCode::Internal,
+                message: e.to_string(),
+            },
+            None,
+        )
+    });
+    let run_seconds = attempt.row.run_seconds + started.elapsed().as_secs_f64();
+    jobs.conclude(&attempt, outcome, run_seconds)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::config::Config;
+    use crate::service::job::Status;
+    use crate::service::keys::Keys;
+    use crate::service::keys::Owner;
+    use crate::service::store::Store;
+    use drapery_sim::spec::Limits;
+
+    fn jobs() -> Arc<Jobs> {
+        let dir = std::env::temp_dir().join(format!("drapery-worker-{}", uuid::Uuid::now_v7()));
+        let config = Config {
+            workers: 1,
+            queue_capacity: 4,
+            limits: Limits::default(),
+            max_wall_seconds: 60.0,
+            max_body_bytes: 1 << 20,
+            keys: Keys::default(),
+            cors_origins: Vec::new(),
+            checkpoint_seconds: 1.0,
+            shutdown_grace: 1.0,
+        };
+        Arc::new(Jobs::new(
+            Arc::new(config),
+            Store::open(&dir).expect("store"),
+        ))
+    }
+
+    const SPEC: &str = r#"{"cloth": {"grid": [3, 3], "size": [1, 1]}, "material": "cotton", "duration": 0.1, "fps": 10}"#;
+
+    /// A job that panics is failed with the panic's message, its stream
+    /// hears `failed`, and the worker (this thread) carries on.
+    #[tokio::test]
+    async fn a_panicking_job_fails_alone() {
+        let jobs = jobs();
+        let owner = Owner(None);
+        let row = jobs
+            .submit(&owner, SPEC.as_bytes())
+            .await
+            .expect("submitted");
+        let mut sub = jobs
+            .subscribe(&owner, &row.id.to_string(), 0)
+            .await
+            .expect("subscribed");
+        guarded(&jobs, row.id, || panic!("index out of bounds"));
+        let row = jobs.get(&owner, &row.id.to_string()).await.expect("exists");
+        assert_eq!(row.status, Status::Failed);
+        let error = row.failure().expect("an error");
+        assert_eq!(error.code, ErrorCode::Internal);
+        assert!(
+            error.message.contains("panicked: index out of bounds"),
+            "{error:?}"
+        );
+        let mut end = None;
+        while let Some(event) = sub.next().await.expect("an event") {
+            if let crate::service::jobs::Event::End(e) = event {
+                end = Some(e);
+            }
+        }
+        assert_eq!(end.map(|e| e.status), Some(Status::Failed));
+        guarded(&jobs, row.id, || Ok(()));
+    }
+
+    /// A queued job runs to the end on this thread: every frame stored, in
+    /// order, and `succeeded` with its statistics.
+    #[tokio::test]
+    async fn a_queued_job_runs_to_success() {
+        let jobs = jobs();
+        let owner = Owner(None);
+        let row = jobs
+            .submit(&owner, SPEC.as_bytes())
+            .await
+            .expect("submitted");
+        assert_eq!(jobs.next_queued(), Some(row.id));
+        let worker = {
+            let jobs = Arc::clone(&jobs);
+            tokio::task::spawn_blocking(move || attempt(&jobs, row.id))
+        };
+        worker.await.expect("joined").expect("recorded");
+        let row = jobs.get(&owner, &row.id.to_string()).await.expect("exists");
+        assert_eq!(row.status, Status::Succeeded);
+        assert_eq!(row.frames_done, 2);
+        assert_eq!(row.attempts, 1);
+        assert!(row.summary().is_some_and(|s| s["frames"] == 2));
+    }
+}
