@@ -19,6 +19,7 @@ pub mod collision;
 pub mod export;
 pub mod math;
 pub mod mesh;
+pub mod parallel;
 pub mod sim;
 pub mod solver;
 pub mod spec;

@@ -66,8 +66,8 @@ fn single_spring_oscillator_decays_by_the_backward_euler_factor() {
     let factor = (1.0 + omega2 * h * h).powf(-0.5);
     for n in 1..=200 {
         integrator.assemble(&physics, &state, &c, h);
-        integrator.precondition(&c);
-        let solve = integrator.solve(&physics, &c, h, &mut dv);
+        integrator.precondition(&physics, &c, h, &mut dv);
+        let solve = integrator.solve(&c, &mut dv);
         update(&mut state, &dv, &c, h).expect("finite");
         assert_eq!(solve.status, SolveStatus::Converged);
         let expected = n0 * factor.powi(n);

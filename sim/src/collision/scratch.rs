@@ -35,6 +35,9 @@ pub struct CollisionScratch {
     pub(super) group: Vec<(Contact, Plan)>,
     /// Crossings found by the last test, `(particle, obstacle)`.
     pub(super) found: Vec<(u32, u32)>,
+    /// Contacts the last accepted step released, with the velocity change
+    /// their hold took away (`Self::released`).
+    pub(super) released: Vec<(u32, Vec3)>,
     /// Counters since the last [`Self::take_counters`].
     pub(super) counters: CollisionCounters,
 }
@@ -47,6 +50,15 @@ impl CollisionScratch {
             swept: vec![Aabb::empty(); obstacles],
             ..Self::default()
         }
+    }
+
+    /// The particles whose contact the last accepted step released, each
+    /// with the velocity change that contact's hold took from it: added to
+    /// the warm start, it makes the next step's predicted path the one the
+    /// particle takes free, so a particle leaving a surface is not caught
+    /// again by a prediction biased towards the surface.
+    pub fn released(&self) -> &[(u32, Vec3)] {
+        &self.released
     }
 
     /// Counters accumulated since the last call, reset.

@@ -289,6 +289,8 @@ impl CollisionStage<'_> {
     ) {
         let before = self.contacts.len();
         let plans = &self.scratch.plans;
+        let released = &mut self.scratch.released;
+        released.clear();
         let colliders = self.obstacles.colliders();
         let mut k = 0;
         self.contacts.retain_mut(|ct| {
@@ -301,6 +303,10 @@ impl CollisionStage<'_> {
             let l = lambda(i);
             let ln = plan.normal.dot(&l);
             if ln < -RELEASE_HYSTERESIS * mass[i] * gravity * h {
+                // The step held it down by `ln n`; without that hold it
+                // would have left: the next step predicts its path from
+                // the velocity change it would have had.
+                released.push((ct.particle, plan.normal * (-ln / mass[i])));
                 return false;
             }
             ct.normal_force = ln.max(0.0) / h;

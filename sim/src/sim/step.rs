@@ -5,7 +5,7 @@
 //! | constrain | pins -> filters `S`, targets `z`, corrections `y` |
 //! | collision prepare | contacts and predicted crossings -> `S`, `z`, `y`, friction impulses |
 //! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]) |
-//! | precondition | the preconditioner from `A` |
+//! | precondition | the warm start's residual; the preconditioner from `A` unless that already converged |
 //! | solve | the modified PCG (filtered residual) |
 //! | update | `v += dv`, `x += h v + y`, finiteness |
 //! | collision resolve | the path taken: accept (release, friction) or redo with new contacts |
@@ -85,11 +85,11 @@ pub fn step(
                 .assemble(&physics, &run.state, &ws.constraints, h)
         });
         clock.run(Stage::Precondition, || {
-            ws.integrator.precondition(&ws.constraints)
+            ws.integrator
+                .precondition(&physics, &ws.constraints, h, &mut run.warm_start)
         });
         let mut solve = clock.run(Stage::Solve, || {
-            ws.integrator
-                .solve(&physics, &ws.constraints, h, &mut run.warm_start)
+            ws.integrator.solve(&ws.constraints, &mut run.warm_start)
         });
         clock
             .run(Stage::Update, || {
@@ -126,6 +126,9 @@ pub fn step(
         };
         match verdict {
             Verdict::Accept => {
+                for &(i, dv) in ws.collision.released() {
+                    run.warm_start[i as usize] += dv;
+                }
                 run.steps += 1;
                 return Ok(StepReport {
                     solve,

@@ -83,15 +83,19 @@ impl BlockCsr {
         self.values.fill(Mat3::zeros());
     }
 
-    /// `y = A x`.
+    /// `y = A x`, rows in parallel chunks (each row's sum in column
+    /// order, so the result does not depend on the thread count).
     pub fn mul(&self, x: &[Vec3], y: &mut [Vec3]) {
-        for (i, yi) in y.iter_mut().enumerate() {
-            let mut acc = Vec3::zeros();
-            for k in self.row_ptr[i]..self.row_ptr[i + 1] {
-                acc += self.values[k] * x[self.col[k] as usize];
+        crate::parallel::for_chunks(y, |start, chunk| {
+            for (k, yi) in chunk.iter_mut().enumerate() {
+                let i = start + k;
+                let mut acc = Vec3::zeros();
+                for s in self.row_ptr[i]..self.row_ptr[i + 1] {
+                    acc += self.values[s] * x[self.col[s] as usize];
+                }
+                *yi = acc;
             }
-            *yi = acc;
-        }
+        });
     }
 
     /// The entries of row `i` as `(column, block)`.

@@ -17,6 +17,7 @@ use super::assemble::{AssemblyInput, System};
 use super::constraints::Constraints;
 use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
+use super::multigrid::Multigrid;
 use super::precond::{BlockJacobi, Jacobi, Preconditioner};
 use super::state::ClothState;
 use crate::cloth::{ForceModel, Grid};
@@ -130,20 +131,17 @@ impl Integrator {
         }
     }
 
-    /// Stage 2: rebuilds the preconditioner from the assembled matrix.
-    pub fn precondition(&mut self, constraints: &Constraints) {
-        self.precond.update(&self.system.a, &constraints.filter);
-    }
-
-    /// Stage 3: solves for `dv`, which holds the warm start on entry (it
-    /// is zeroed first when warm starts are off).
-    pub fn solve(
+    /// Stage 2: starts the solve from the warm start `dv` (zeroed first
+    /// when warm starts are off; its constrained components set to the
+    /// targets). When that already meets the tolerance there is nothing to
+    /// solve and the preconditioner is not rebuilt.
+    pub fn precondition(
         &mut self,
         physics: &Physics<'_>,
         constraints: &Constraints,
         h: Real,
         dv: &mut [Vec3],
-    ) -> SolveReport {
+    ) {
         if !self.warm_start {
             dv.fill(Vec3::zeros());
         }
@@ -151,29 +149,42 @@ impl Integrator {
         // would demand ever more digits of nothing; the gravity impulse
         // h M g sets the scale of a step's velocity change instead.
         let sb = mpcg::filtered_norm(&self.system.b, &constraints.filter);
-        let gravity_impulse = physics
-            .mass
-            .iter()
-            .zip(&constraints.filter)
-            .map(|(m, f)| f.apply(&(physics.gravity * (h * m))).norm_squared())
-            .sum::<Real>()
-            .sqrt();
-        let options = MpcgOptions {
-            reference: Some(sb.max(gravity_impulse)),
-            ..self.options
-        };
-        mpcg::solve(
-            &Problem {
-                a: &self.system.a,
-                b: &self.system.b,
-                filter: &constraints.filter,
-                z: &constraints.z,
-            },
-            self.precond.as_ref(),
+        let gravity_impulse = crate::parallel::sum(physics.mass.len(), |r| {
+            physics.mass[r.clone()]
+                .iter()
+                .zip(&constraints.filter[r])
+                .map(|(m, f)| f.apply(&(physics.gravity * (h * m))).norm_squared())
+                .sum()
+        })
+        .sqrt();
+        self.options.reference = Some(sb.max(gravity_impulse));
+        let problem = problem(&self.system, constraints);
+        let start = mpcg::start(&problem, dv, &mut self.ws);
+        if start > self.options.threshold(&problem) {
+            self.precond.update(&self.system.a, &constraints.filter);
+        }
+    }
+
+    /// Stage 3: solves for `dv` from the started solve (no iteration when
+    /// the warm start met the tolerance).
+    pub fn solve(&mut self, constraints: &Constraints, dv: &mut [Vec3]) -> SolveReport {
+        mpcg::iterate(
+            &problem(&self.system, constraints),
+            self.precond.as_mut(),
             dv,
-            &options,
+            &self.options,
             &mut self.ws,
         )
+    }
+}
+
+/// The system of `system` under `constraints`.
+fn problem<'a>(system: &'a System, constraints: &'a Constraints) -> Problem<'a> {
+    Problem {
+        a: &system.a,
+        b: &system.b,
+        filter: &constraints.filter,
+        z: &constraints.z,
     }
 }
 
@@ -192,10 +203,13 @@ pub fn update(
             quantity: "velocity change",
         });
     }
-    for i in 0..state.x.len() {
-        state.v[i] += dv[i];
-        state.x[i] += state.v[i] * h + constraints.y[i];
-    }
+    let y = &constraints.y;
+    crate::parallel::for_chunks2(&mut state.x, &mut state.v, |start, x, v| {
+        for k in 0..x.len() {
+            v[k] += dv[start + k];
+            x[k] += v[k] * h + y[start + k];
+        }
+    });
     state.time += h;
     if let Some(particle) = state.x.iter().position(|x| !is_finite(x)) {
         return Err(StepError {
@@ -212,5 +226,6 @@ fn preconditioner(kind: PreconditionerKind, grid: &Grid) -> Box<dyn Precondition
         PreconditionerKind::Jacobi => Box::<Jacobi>::default(),
         PreconditionerKind::BlockJacobi => Box::<BlockJacobi>::default(),
         PreconditionerKind::Lines => Box::new(AlternatingLines::new(grid.nu, grid.nv)),
+        PreconditionerKind::Multigrid => Box::new(Multigrid::new(grid.nu, grid.nv)),
     }
 }

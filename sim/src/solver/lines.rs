@@ -1,162 +1,54 @@
-//! Alternating-line symmetric Gauss–Seidel: a preconditioner shaped by the
-//! cloth's stiffness.
+//! Alternating-line symmetric Gauss–Seidel on its own: the multigrid's
+//! smoother (`multigrid::LineFamily`) applied once as a preconditioner,
+//! with no coarse grid.
 //!
-//! Stretch stiffness (~10⁴ N/m) dwarfs shear and bending (method.md §1),
-//! and a stretch spring couples particles only along its own grid line, in
-//! that line's direction. Point preconditioners (Jacobi) see each particle
-//! alone and need hundreds of CG iterations to carry a pull along a line.
-//! Here each warp line and each weft line is solved exactly (a block-banded
-//! Cholesky, half-bandwidth 8 scalars: neighbours up to two particles away
-//! for bending), in a symmetric multiplicative sweep
+//! Each warp line and each weft line is solved exactly (a block-banded
+//! Cholesky: neighbours up to two particles away for bending), in a
+//! symmetric sweep
 //!
 //! ```text
-//! u-lines forward, v-lines forward, v-lines backward, u-lines backward
+//! warp lines forward, weft lines forward, weft lines backward, warp lines backward
 //! ```
 //!
-//! which is symmetric positive definite for an SPD matrix (symmetric block
-//! Gauss–Seidel with exact block solves). What is left for CG is the weak
-//! coupling between lines (shear, bend), so iteration counts follow the
-//! soft stiffnesses instead of the stiff ones.
+//! which is symmetric positive definite for an SPD matrix. What is left
+//! for CG is the weak coupling between lines (shear, bend), so iteration
+//! counts follow the soft stiffnesses instead of the stiff ones, but grow
+//! with the grid (the multigrid's coarse levels remove that growth).
 //!
-//! Constraints: the line systems are built from `S A S + (I - S) d`, which
-//! equals the filtered system on the free directions and is SPD, so
-//! constrained directions neither pollute nor break the factorisation.
+//! Constraints: the line systems are built from the prefiltered
+//! `S A S + (I - S) d`, which equals the filtered system on the free
+//! directions and is SPD, so constrained directions neither pollute nor
+//! break the factorisation.
 
-use super::banded::BandedCholesky;
 use super::bsr::BlockCsr;
 use super::constraints::Filter;
+use super::multigrid::{Direction, GridMatrix, LineFamily, LineScratch, Vec3f};
 use super::precond::Preconditioner;
-use crate::math::{Mat3, Vec3};
-
-/// Scalar half-bandwidth of a line system: 2 blocks of 3, plus 2.
-const BAND: usize = 8;
-
-/// One family of lines (all warp lines or all weft lines).
-#[derive(Debug, Clone, Default)]
-struct Family {
-    /// Particle indices of each line, in order along it.
-    lines: Vec<Vec<u32>>,
-    /// Line of each particle.
-    line_of: Vec<u32>,
-    factors: Vec<BandedCholesky<BAND>>,
-}
-
-impl Family {
-    fn new(n: usize, lines: Vec<Vec<u32>>) -> Self {
-        let mut line_of = vec![0; n];
-        for (l, line) in lines.iter().enumerate() {
-            for &p in line {
-                line_of[p as usize] = l as u32;
-            }
-        }
-        let factors = vec![BandedCholesky::default(); lines.len()];
-        Self {
-            lines,
-            line_of,
-            factors,
-        }
-    }
-
-    fn update(&mut self, a: &BlockCsr, filter: &[Filter], local: &mut [usize]) {
-        for (l, line) in self.lines.iter().enumerate() {
-            for (k, &p) in line.iter().enumerate() {
-                local[p as usize] = k;
-            }
-            let f = &mut self.factors[l];
-            f.reset(3 * line.len());
-            for (i, &p) in line.iter().enumerate() {
-                let p = p as usize;
-                let sp = filter[p].matrix();
-                for (q, block) in a.row(p) {
-                    if self.line_of[q] as usize != l {
-                        continue;
-                    }
-                    let j = local[q];
-                    if j > i || i - j > 2 {
-                        continue;
-                    }
-                    let mut m = sp * block * filter[q].matrix();
-                    if i == j {
-                        // Keep blocked directions invertible at the matrix's scale.
-                        let scale = block.trace().abs() / 3.0;
-                        m += (Mat3::identity() - sp) * scale.max(f64::MIN_POSITIVE);
-                    }
-                    for r in 0..3 {
-                        for c in 0..3 {
-                            let (gi, gj) = (3 * i + r, 3 * j + c);
-                            if gj <= gi {
-                                f.add(gi, gj, m[(r, c)]);
-                            }
-                        }
-                    }
-                }
-            }
-            f.factor();
-        }
-    }
-
-    /// Gauss–Seidel over the lines in `order`: each line's unknowns are
-    /// replaced by the exact solution given the others.
-    fn sweep(
-        &self,
-        a: &BlockCsr,
-        filter: &[Filter],
-        r: &[Vec3],
-        x: &mut [Vec3],
-        reverse: bool,
-        scratch: &mut Vec<f64>,
-    ) {
-        let n_lines = self.lines.len();
-        for k in 0..n_lines {
-            let l = if reverse { n_lines - 1 - k } else { k };
-            let line = &self.lines[l];
-            scratch.clear();
-            for &p in line {
-                let p = p as usize;
-                let mut rhs = r[p];
-                for (q, block) in a.row(p) {
-                    if self.line_of[q] as usize != l {
-                        rhs -= block * x[q];
-                    }
-                }
-                let rhs = filter[p].apply(&rhs);
-                scratch.extend_from_slice(rhs.as_slice());
-            }
-            self.factors[l].solve(scratch);
-            for (i, &p) in line.iter().enumerate() {
-                x[p as usize] = Vec3::new(scratch[3 * i], scratch[3 * i + 1], scratch[3 * i + 2]);
-            }
-        }
-    }
-}
+use crate::math::Vec3;
 
 /// The alternating-line preconditioner for an `nu x nv` grid.
 #[derive(Debug, Clone)]
 pub struct AlternatingLines {
-    warp: Family,
-    weft: Family,
-    local: Vec<usize>,
-    scratch: std::cell::RefCell<Vec<f64>>,
+    nu: usize,
+    nv: usize,
+    /// The prefiltered matrix and its two line families (built at the
+    /// first update).
+    parts: Option<(GridMatrix, LineFamily, LineFamily)>,
+    b: Vec<Vec3f>,
+    x: Vec<Vec3f>,
+    scratch: LineScratch,
 }
-
-// NOTE: `scratch` is a RefCell so `apply(&self)` can reuse one buffer; that
-// makes the type `Send` but not `Sync`, which is all the trait asks.
 
 impl AlternatingLines {
     /// Lines of the grid with particle `(i, j)` at `i + j * nu`.
     pub fn new(nu: usize, nv: usize) -> Self {
-        let n = nu * nv;
-        let warp = (0..nv)
-            .map(|j| (0..nu).map(|i| (i + j * nu) as u32).collect())
-            .collect();
-        let weft = (0..nu)
-            .map(|i| (0..nv).map(|j| (i + j * nu) as u32).collect())
-            .collect();
         Self {
-            warp: Family::new(n, warp),
-            weft: Family::new(n, weft),
-            local: vec![0; n],
-            scratch: std::cell::RefCell::new(Vec::new()),
+            nu,
+            nv,
+            parts: None,
+            b: Vec::new(),
+            x: Vec::new(),
+            scratch: LineScratch::default(),
         }
     }
 }
@@ -167,20 +59,37 @@ impl Preconditioner for AlternatingLines {
     }
 
     fn update(&mut self, a: &BlockCsr, filter: &[Filter]) {
-        self.warp.update(a, filter, &mut self.local);
-        self.weft.update(a, filter, &mut self.local);
+        let (nu, nv) = (self.nu, self.nv);
+        let (m, warp, weft) = self.parts.get_or_insert_with(|| {
+            let m = GridMatrix::new(nu, nv, GridMatrix::offsets_of(a, nu));
+            let warp = LineFamily::new(Direction::U, &m);
+            let weft = LineFamily::new(Direction::V, &m);
+            (m, warp, weft)
+        });
+        m.set_prefiltered(a, filter);
+        warp.factor(m);
+        weft.factor(m);
     }
 
-    fn apply(&self, a: &BlockCsr, filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
-        out.fill(Vec3::zeros());
-        let mut s = self.scratch.borrow_mut();
-        self.warp.sweep(a, filter, r, out, false, &mut s);
-        self.weft.sweep(a, filter, r, out, false, &mut s);
-        self.weft.sweep(a, filter, r, out, true, &mut s);
-        self.warp.sweep(a, filter, r, out, true, &mut s);
+    fn apply(&mut self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
+        let Some((m, warp, weft)) = &self.parts else {
+            out.copy_from_slice(r);
+            return;
+        };
+        self.b.clear();
+        self.b.extend(r.iter().map(|v| v.cast::<f32>()));
+        self.x.clear();
+        self.x.resize(r.len(), Vec3f::zeros());
+        let s = &mut self.scratch;
+        warp.sweep(m, &self.b, &mut self.x, true, s);
+        weft.sweep(m, &self.b, &mut self.x, true, s);
+        weft.sweep(m, &self.b, &mut self.x, false, s);
+        warp.sweep(m, &self.b, &mut self.x, false, s);
+        for (o, x) in out.iter_mut().zip(&self.x) {
+            *o = x.cast::<f64>();
+        }
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -239,7 +148,7 @@ mod tests {
             let mut dv = vec![Vec3::zeros(); n];
             let rep = solve(
                 &problem,
-                p.as_ref(),
+                p.as_mut(),
                 &mut dv,
                 &opts,
                 &mut MpcgWorkspace::default(),

@@ -19,12 +19,12 @@
 //!   a step advances.
 
 mod assemble;
-mod banded;
 mod bsr;
 mod constraints;
 mod integrator;
 mod lines;
 pub mod mpcg;
+pub mod multigrid;
 mod precond;
 mod state;
 
@@ -34,5 +34,6 @@ pub use constraints::{Constraints, Filter};
 pub use integrator::{Integrator, Physics, StepError, update};
 pub use lines::AlternatingLines;
 pub use mpcg::{MpcgOptions, MpcgWorkspace, Problem, SolveReport, SolveStatus};
+pub use multigrid::Multigrid;
 pub use precond::{BlockJacobi, Jacobi, Preconditioner};
 pub use state::ClothState;

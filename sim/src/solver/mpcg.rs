@@ -9,12 +9,18 @@
 //!
 //! It stops when `|S (b - A dv)| <= tolerance * reference`, where the
 //! reference defaults to `|S b|`; the step pipeline passes a reference that
-//! does not vanish at equilibrium (see `step.rs`).
+//! does not vanish at equilibrium (see `integrator.rs`).
+//!
+//! A solve is [`start`]ed (the warm start's residual, which may already
+//! meet the tolerance: then no preconditioner is needed at all) and then
+//! [`iterate`]d. Vector operations run on [`crate::parallel`]'s
+//! fixed chunks, so the result does not depend on the thread count.
 
 use super::bsr::BlockCsr;
 use super::constraints::Filter;
 use super::precond::Preconditioner;
 use crate::math::{Real, Vec3};
+use crate::parallel::{self, dot};
 
 /// Stopping rules.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,6 +31,21 @@ pub struct MpcgOptions {
     pub max_iterations: usize,
     /// Norm the residual is measured against; `None` means `|S b|`.
     pub reference: Option<Real>,
+}
+
+impl MpcgOptions {
+    /// The residual norm at which a solve of `problem` stops.
+    pub fn threshold(&self, problem: &Problem<'_>) -> Real {
+        self.tolerance * self.floor(problem)
+    }
+
+    /// The reference norm, kept away from zero so an all-zero system
+    /// converges at once instead of dividing by zero.
+    fn floor(&self, problem: &Problem<'_>) -> Real {
+        self.reference
+            .unwrap_or_else(|| filtered_norm(problem.b, problem.filter))
+            .max(1e-300)
+    }
 }
 
 /// How a solve ended (STYLE.md 8).
@@ -68,14 +89,12 @@ impl MpcgWorkspace {
     }
 }
 
-fn dot(a: &[Vec3], b: &[Vec3]) -> Real {
-    a.iter().zip(b).map(|(x, y)| x.dot(y)).sum()
-}
-
 fn filter_in_place(s: &[Filter], v: &mut [Vec3]) {
-    for (f, x) in s.iter().zip(v.iter_mut()) {
-        *x = f.apply(x);
-    }
+    parallel::for_chunks(v, |start, chunk| {
+        for (k, x) in chunk.iter_mut().enumerate() {
+            *x = s[start + k].apply(x);
+        }
+    });
 }
 
 /// The system `A dv = b` with filters `S` and targets `z`.
@@ -91,38 +110,45 @@ pub struct Problem<'a> {
     pub z: &'a [Vec3],
 }
 
-/// The constrained-system solve. `dv` holds the warm-start guess on entry
-/// and the solution on return; the residual `S (b - A dv)` is left in the
-/// workspace for [`residual`].
-pub fn solve(
+/// Starts a solve: puts `dv`'s constrained components at their targets
+/// (keeping its free components as the warm start) and leaves the residual
+/// `S (b - A dv)` in the workspace. Returns its norm.
+pub fn start(problem: &Problem<'_>, dv: &mut [Vec3], ws: &mut MpcgWorkspace) -> Real {
+    let Problem { a, b, filter: s, z } = *problem;
+    ws.resize(b.len());
+    parallel::for_chunks(dv, |start, chunk| {
+        for (k, d) in chunk.iter_mut().enumerate() {
+            let i = start + k;
+            *d = s[i].apply(d) + z[i] - s[i].apply(&z[i]);
+        }
+    });
+    a.mul(dv, &mut ws.q);
+    let q = &ws.q;
+    parallel::for_chunks(&mut ws.r, |start, chunk| {
+        for (k, r) in chunk.iter_mut().enumerate() {
+            let i = start + k;
+            *r = s[i].apply(&(b[i] - q[i]));
+        }
+    });
+    dot(&ws.r, &ws.r).sqrt()
+}
+
+/// Continues a [`start`]ed solve until the residual meets the options.
+pub fn iterate(
     problem: &Problem<'_>,
-    precond: &dyn Preconditioner,
+    precond: &mut dyn Preconditioner,
     dv: &mut [Vec3],
     opts: &MpcgOptions,
     ws: &mut MpcgWorkspace,
 ) -> SolveReport {
-    let Problem { a, b, filter: s, z } = *problem;
-    let n = b.len();
-    ws.resize(n);
-    for i in 0..n {
-        dv[i] = s[i].apply(&dv[i]) + z[i] - s[i].apply(&z[i]);
-    }
-    let reference = opts.reference.unwrap_or_else(|| filtered_norm(b, s));
-    let floor = tiny_reference(reference);
+    let Problem { a, filter: s, .. } = *problem;
+    let floor = opts.floor(problem);
     let threshold = opts.tolerance * floor;
-
-    // r = S (b - A dv)
-    a.mul(dv, &mut ws.q);
-    for i in 0..n {
-        ws.r[i] = s[i].apply(&(b[i] - ws.q[i]));
-    }
-    precond.apply(a, s, &ws.r, &mut ws.c);
-    filter_in_place(s, &mut ws.c);
-    let mut delta = dot(&ws.r, &ws.c);
     let mut rnorm = dot(&ws.r, &ws.r).sqrt();
     let mut iterations = 0;
+    let mut delta = Real::NAN;
     let status = loop {
-        if !rnorm.is_finite() || !delta.is_finite() {
+        if !rnorm.is_finite() {
             break SolveStatus::Breakdown;
         }
         if rnorm <= threshold {
@@ -131,6 +157,25 @@ pub fn solve(
         if iterations >= opts.max_iterations {
             break SolveStatus::MaxIterations;
         }
+        precond.apply(a, s, &ws.r, &mut ws.s);
+        filter_in_place(s, &mut ws.s);
+        let delta_new = dot(&ws.r, &ws.s);
+        if !delta_new.is_finite() {
+            break SolveStatus::Breakdown;
+        }
+        // c = s + beta c (the first direction is s itself).
+        let beta = if iterations == 0 {
+            0.0
+        } else {
+            delta_new / delta
+        };
+        delta = delta_new;
+        let sv = &ws.s;
+        parallel::for_chunks(&mut ws.c, |start, chunk| {
+            for (k, c) in chunk.iter_mut().enumerate() {
+                *c = sv[start + k] + *c * beta;
+            }
+        });
         a.mul(&ws.c, &mut ws.q);
         filter_in_place(s, &mut ws.q);
         let curvature = dot(&ws.c, &ws.q);
@@ -138,18 +183,13 @@ pub fn solve(
             break SolveStatus::Breakdown;
         }
         let alpha = delta / curvature;
-        for i in 0..n {
-            dv[i] += ws.c[i] * alpha;
-            ws.r[i] -= ws.q[i] * alpha;
-        }
-        precond.apply(a, s, &ws.r, &mut ws.s);
-        filter_in_place(s, &mut ws.s);
-        let delta_new = dot(&ws.r, &ws.s);
-        let beta = delta_new / delta;
-        delta = delta_new;
-        for i in 0..n {
-            ws.c[i] = ws.s[i] + ws.c[i] * beta;
-        }
+        let (c, q) = (&ws.c, &ws.q);
+        parallel::for_chunks2(dv, &mut ws.r, |start, d, r| {
+            for k in 0..d.len() {
+                d[k] += c[start + k] * alpha;
+                r[k] -= q[start + k] * alpha;
+            }
+        });
         rnorm = dot(&ws.r, &ws.r).sqrt();
         iterations += 1;
     };
@@ -160,19 +200,30 @@ pub fn solve(
     }
 }
 
-/// `|S v|`: the norm of `v` on the free directions.
-pub fn filtered_norm(v: &[Vec3], s: &[Filter]) -> Real {
-    v.iter()
-        .zip(s)
-        .map(|(v, f)| f.apply(v).norm_squared())
-        .sum::<Real>()
-        .sqrt()
+/// The constrained-system solve: [`start`] then [`iterate`]. `dv` holds
+/// the warm-start guess on entry and the solution on return; the residual
+/// `S (b - A dv)` is left in the workspace for [`residual`].
+pub fn solve(
+    problem: &Problem<'_>,
+    precond: &mut dyn Preconditioner,
+    dv: &mut [Vec3],
+    opts: &MpcgOptions,
+    ws: &mut MpcgWorkspace,
+) -> SolveReport {
+    start(problem, dv, ws);
+    iterate(problem, precond, dv, opts, ws)
 }
 
-/// The reference norm, kept away from zero so an all-zero system converges
-/// at once instead of dividing by zero.
-fn tiny_reference(reference: Real) -> Real {
-    reference.max(1e-300)
+/// `|S v|`: the norm of `v` on the free directions.
+pub fn filtered_norm(v: &[Vec3], s: &[Filter]) -> Real {
+    parallel::sum(v.len(), |r| {
+        v[r.clone()]
+            .iter()
+            .zip(&s[r])
+            .map(|(v, f)| f.apply(v).norm_squared())
+            .sum()
+    })
+    .sqrt()
 }
 
 /// The filtered residual `S (b - A dv)` of the last solve, per particle.
@@ -254,7 +305,7 @@ mod tests {
                         filter: &s,
                         z: &z,
                     },
-                    p.as_ref(),
+                    p.as_mut(),
                     &mut x,
                     &opts,
                     &mut MpcgWorkspace::default(),
@@ -315,7 +366,7 @@ mod tests {
                 filter: &s,
                 z: &z,
             },
-            &p,
+            &mut p,
             &mut x,
             &opts,
             &mut ws,
@@ -388,7 +439,7 @@ mod tests {
                 filter: &s,
                 z: &z,
             },
-            &id,
+            &mut id,
             &mut x,
             &opts,
             &mut MpcgWorkspace::default(),
@@ -415,7 +466,7 @@ mod tests {
                 filter: &s,
                 z: &z,
             },
-            &p,
+            &mut p,
             &mut x,
             &opts,
             &mut MpcgWorkspace::default(),

@@ -2,8 +2,9 @@
 //!
 //! The trait is the seam for better preconditioners (the linear solve is
 //! where the time goes): `update` sees the assembled matrix once per step,
-//! `apply` runs once per CG iteration. The MPCG filters the output, so a
-//! preconditioner need not know about constraints.
+//! `apply` runs once per CG iteration (and may use scratch of its own).
+//! The MPCG filters the output, so a preconditioner need not know about
+//! constraints.
 
 use super::bsr::BlockCsr;
 use super::constraints::Filter;
@@ -17,7 +18,7 @@ pub trait Preconditioner: Send + std::fmt::Debug {
     fn update(&mut self, a: &BlockCsr, filter: &[Filter]);
     /// Applies the (symmetric positive definite) approximate inverse of the
     /// filtered matrix to `r`; `a` and `filter` are the ones of `update`.
-    fn apply(&self, a: &BlockCsr, filter: &[Filter], r: &[Vec3], out: &mut [Vec3]);
+    fn apply(&mut self, a: &BlockCsr, filter: &[Filter], r: &[Vec3], out: &mut [Vec3]);
 }
 
 /// Inverse of the scalar diagonal of `A` (the paper's choice).
@@ -39,7 +40,7 @@ impl Preconditioner for Jacobi {
         }));
     }
 
-    fn apply(&self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
+    fn apply(&mut self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
         for ((o, r), d) in out.iter_mut().zip(r).zip(&self.inv) {
             *o = r.component_mul(d);
         }
@@ -75,7 +76,7 @@ impl Preconditioner for BlockJacobi {
         }));
     }
 
-    fn apply(&self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
+    fn apply(&mut self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
         for ((o, r), m) in out.iter_mut().zip(r).zip(&self.inv) {
             *o = m * r;
         }

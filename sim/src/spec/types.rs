@@ -219,6 +219,9 @@ pub enum PreconditionerKind {
     /// alternating Gauss–Seidel sweep.
     #[default]
     Lines,
+    /// A multigrid V-cycle: Galerkin coarse levels of the prefiltered
+    /// operator, line relaxation on every level, a direct coarsest solve.
+    Multigrid,
 }
 
 /// Which Jacobian the force terms produce.

@@ -1,0 +1,139 @@
+//! Deterministic parallel loops: results bit for bit independent of the
+//! number of threads, so a checkpoint resumes exactly on any machine.
+//!
+//! Work is cut into chunks of a fixed size ([`CHUNK`]), never into one
+//! piece per thread; a sum adds each chunk's partial in chunk order. Which
+//! thread runs a chunk then changes nothing. Loops shorter than
+//! [`PARALLEL_MIN`] run on the calling thread (the same chunks, the same
+//! sums): below it, handing work to another core costs more than it saves.
+//!
+//! The threads are rayon's global pool; callers size it once at start
+//! (`drapery --threads`, `DRAPERY_THREADS`).
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use crate::math::{Real, Vec3};
+
+/// Elements per chunk.
+pub const CHUNK: usize = 512;
+/// Fewest elements worth spreading over threads.
+pub const PARALLEL_MIN: usize = 4096;
+
+/// `Σ f(chunk)` over the chunks of `0..n`, partials added in order.
+pub fn sum(n: usize, f: impl Fn(Range<usize>) -> Real + Sync) -> Real {
+    let chunks = n.div_ceil(CHUNK);
+    let range = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(n);
+    if n < PARALLEL_MIN {
+        return (0..chunks).map(|c| f(range(c))).sum();
+    }
+    let partials: Vec<Real> = (0..chunks).into_par_iter().map(|c| f(range(c))).collect();
+    partials.into_iter().sum()
+}
+
+/// `aᵀ b`.
+pub fn dot(a: &[Vec3], b: &[Vec3]) -> Real {
+    sum(a.len(), |r| {
+        a[r.clone()].iter().zip(&b[r]).map(|(x, y)| x.dot(y)).sum()
+    })
+}
+
+/// Runs `f(start, chunk)` on every chunk of `out` (`start`: the chunk's
+/// first index).
+pub fn for_chunks<T: Send>(out: &mut [T], f: impl Fn(usize, &mut [T]) + Sync) {
+    if out.len() < PARALLEL_MIN {
+        for (c, chunk) in out.chunks_mut(CHUNK).enumerate() {
+            f(c * CHUNK, chunk);
+        }
+    } else {
+        out.par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, chunk)| f(c * CHUNK, chunk));
+    }
+}
+
+/// Runs `f(start, a_chunk, b_chunk)` on matching chunks of two slices of
+/// the same length.
+pub fn for_chunks2<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    f: impl Fn(usize, &mut [A], &mut [B]) + Sync,
+) {
+    if a.len() < PARALLEL_MIN {
+        for (c, (x, y)) in a.chunks_mut(CHUNK).zip(b.chunks_mut(CHUNK)).enumerate() {
+            f(c * CHUNK, x, y);
+        }
+    } else {
+        a.par_chunks_mut(CHUNK)
+            .zip(b.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, (x, y))| f(c * CHUNK, x, y));
+    }
+}
+
+/// Runs `f(row, values)` on every row of `out`, a table of rows of
+/// `width` values each.
+pub fn for_rows<T: Send>(out: &mut [T], width: usize, f: impl Fn(usize, &mut [T]) + Sync) {
+    let width = width.max(1);
+    let rows_per_chunk = (CHUNK / width).max(1);
+    let run = |c: usize, chunk: &mut [T]| {
+        for (k, row) in chunk.chunks_mut(width).enumerate() {
+            f(c * rows_per_chunk + k, row);
+        }
+    };
+    if out.len() < PARALLEL_MIN {
+        for (c, chunk) in out.chunks_mut(rows_per_chunk * width).enumerate() {
+            run(c, chunk);
+        }
+    } else {
+        out.par_chunks_mut(rows_per_chunk * width)
+            .enumerate()
+            .for_each(|(c, chunk)| run(c, chunk));
+    }
+}
+
+/// Whether work on `n` elements is spread over threads.
+pub fn is_parallel(n: usize) -> bool {
+    n >= PARALLEL_MIN && rayon::current_num_threads() > 1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The same sums and loops in a pool of one thread and of four.
+    #[test]
+    fn results_do_not_depend_on_the_thread_count() {
+        let n = 3 * PARALLEL_MIN + 17;
+        let a: Vec<Vec3> = (0..n)
+            .map(|k| {
+                Vec3::new(
+                    (k as f64).sin(),
+                    1.0 / (1.0 + k as f64),
+                    (k % 7) as f64 * 1e-9,
+                )
+            })
+            .collect();
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            pool.install(|| {
+                let d = dot(&a, &a);
+                let mut out = vec![0.0; n];
+                for_chunks(&mut out, |start, c| {
+                    for (k, o) in c.iter_mut().enumerate() {
+                        *o = a[start + k].x * 2.0;
+                    }
+                });
+                (d, out)
+            })
+        };
+        let (d1, o1) = run(1);
+        let (d4, o4) = run(4);
+        assert_eq!(d1.to_bits(), d4.to_bits());
+        assert_eq!(o1, o4);
+    }
+}

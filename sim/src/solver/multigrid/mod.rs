@@ -1,0 +1,15 @@
+//! Geometric multigrid for the cloth's grid (speed issue: CG iterations
+//! flat in the number of particles): structured block matrices, bilinear
+//! transfers with Galerkin coarse operators, line relaxation, a dense
+//! coarsest solve, and the V-cycle preconditioner over them.
+
+mod dense;
+mod grid_matrix;
+mod hierarchy;
+mod lines;
+mod transfer;
+
+pub use grid_matrix::{Block, GridMatrix, Vec3f};
+pub use hierarchy::Multigrid;
+pub use lines::{Direction, LineFamily, LineScratch};
+pub use transfer::{Axis, Transfer};
