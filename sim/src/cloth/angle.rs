@@ -92,15 +92,13 @@ pub fn energy_of_square(q: Real, c1: Real, c0: Real) -> (Real, Real, Real) {
     )
 }
 
-/// What a law returns for one element: energy, gradient and Hessian with
-/// respect to the arms `(e1, e2)`.
+/// What a law returns for one element: gradient and Hessian with respect
+/// to the arms `(e1, e2)`.
 #[derive(Debug, Clone, Copy)]
 pub struct ArmDerivatives {
-    /// Energy.
-    pub energy: Real,
     /// `∂E/∂e1`, `∂E/∂e2`.
     pub grad: [Vec3; 2],
-    /// `∂²E/∂e_i∂e_j`.
+    /// `∂²E/∂e_i∂e_j` (the exact one, or the solver's PSD one).
     pub hess: [[Mat3; 2]; 2],
 }
 
@@ -110,14 +108,20 @@ pub trait AngleLaw {
     const NAME: &'static str;
     /// Energy only.
     fn energy(g: &AngleGeom, c1: Real, c0: Real) -> Real;
-    /// Energy, gradient, and the Hessian requested by `mode`.
+    /// Gradient and the Hessian requested by `mode`; only the one asked
+    /// for is computed (PERF: the solver's assembly never pays for the
+    /// exact Hessian).
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives;
 }
 
-/// Chain rule through `f`: gradient `E_f ∂f`, exact Hessian
-/// `E_ff ∂f ∂fᵀ + E_f ∂²f`.
-pub fn exact_through_f(g: &AngleGeom, e_f: Real, e_ff: Real) -> ([Vec3; 2], [[Mat3; 2]; 2]) {
-    let grad = [g.g1 * e_f, g.g2 * e_f];
+/// Chain rule through `f`: the gradient `E_f ∂f`.
+#[inline]
+pub fn gradient_through_f(g: &AngleGeom, e_f: Real) -> [Vec3; 2] {
+    [g.g1 * e_f, g.g2 * e_f]
+}
+
+/// Chain rule through `f`: the exact Hessian `E_ff ∂f ∂fᵀ + E_f ∂²f`.
+pub fn exact_hessian_through_f(g: &AngleGeom, e_f: Real, e_ff: Real) -> [[Mat3; 2]; 2] {
     let hf = g.hessian_f();
     let gs = [g.g1, g.g2];
     let mut hess = [[Mat3::zeros(); 2]; 2];
@@ -126,7 +130,7 @@ pub fn exact_through_f(g: &AngleGeom, e_f: Real, e_ff: Real) -> ([Vec3; 2], [[Ma
             hess[i][j] = outer(&gs[i], &gs[j]) * e_ff + hf[i][j] * e_f;
         }
     }
-    (grad, hess)
+    hess
 }
 
 /// One angle element: centre particle `b`, arms to `a` and `c`.
@@ -164,10 +168,6 @@ impl<L> AngleForce<L> {
     }
 }
 
-/// Rows of the map from particles `(a, b, c)` to arms `(e1, e2)`:
-/// `e1 = a - b`, `e2 = c - b`.
-const ARM_OF: [[Real; 2]; 3] = [[1.0, 0.0], [-1.0, -1.0], [0.0, 1.0]];
-
 impl<L: AngleLaw> Force for AngleForce<L> {
     fn name(&self) -> &'static str {
         L::NAME
@@ -191,30 +191,35 @@ impl<L: AngleLaw> Force for AngleForce<L> {
         }
     }
 
-    fn accumulate<S: Sink>(&self, x: &[Vec3], _v: &[Vec3], mode: JacobianMode, sink: &mut S) {
-        for (e, el) in self.elements.iter().enumerate() {
-            let [a, b, c] = el.idx;
-            let Some(g) = AngleGeom::new(&x[a], &x[b], &x[c]) else {
-                continue; // a collapsed arm has no angle; its springs resist it
-            };
-            let d = L::eval(&g, el.c1, el.c0, mode);
-            let mut f = [Vec3::zeros(); 3];
-            let mut k = [[Mat3::zeros(); 3]; 3];
-            for p in 0..3 {
-                f[p] = -(d.grad[0] * ARM_OF[p][0] + d.grad[1] * ARM_OF[p][1]);
-                for q in 0..3 {
-                    let mut block = Mat3::zeros();
-                    for (i, ti) in ARM_OF[p].iter().enumerate() {
-                        for (j, tj) in ARM_OF[q].iter().enumerate() {
-                            if ti * tj != 0.0 {
-                                block += d.hess[i][j] * (ti * tj);
-                            }
-                        }
-                    }
-                    k[p][q] = -block;
-                }
-            }
-            sink.add(e, &el.idx, &f, Some(&k), None);
-        }
+    fn element_count(&self) -> usize {
+        self.elements.len()
+    }
+
+    fn add_element<S: Sink>(
+        &self,
+        e: usize,
+        x: &[Vec3],
+        _v: &[Vec3],
+        mode: JacobianMode,
+        sink: &mut S,
+    ) {
+        let el = &self.elements[e];
+        let [a, b, c] = el.idx;
+        let Some(g) = AngleGeom::new(&x[a], &x[b], &x[c]) else {
+            return; // a collapsed arm has no angle; its springs resist it
+        };
+        let d = L::eval(&g, el.c1, el.c0, mode);
+        let [g1, g2] = d.grad;
+        let [[h11, h12], [h21, h22]] = d.hess;
+        // Arms e1 = a - b, e2 = c - b: forces -∂E/∂x and Jacobian
+        // blocks -∂²E/∂x∂x, written out (b sees both arms, negated).
+        let f = [-g1, g1 + g2, -g2];
+        let (s1, s2) = (h11 + h12, h21 + h22);
+        let k = [
+            [-h11, s1, -h12],
+            [h11 + h21, -(s1 + s2), h12 + h22],
+            [-h21, s2, -h22],
+        ];
+        sink.add(e, &el.idx, &f, Some(&k), None);
     }
 }

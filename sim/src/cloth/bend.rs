@@ -19,7 +19,7 @@
 //! both transverse directions of a straight line.
 
 use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives};
-use super::angle::{energy_of_square, exact_through_f};
+use super::angle::{energy_of_square, exact_hessian_through_f, gradient_through_f};
 use super::grid::Grid;
 use crate::math::{Mat3, Real, outer};
 use crate::spec::JacobianMode;
@@ -76,7 +76,7 @@ impl AngleLaw for Bend {
 
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives {
         let phi = Self::phi(g);
-        let (energy, e_q, e_qq) = energy_of_square(phi * phi, c1, c0);
+        let (_, e_q, e_qq) = energy_of_square(phi * phi, c1, c0);
         // q = φ² as a function of f: q_f = 2φ / sin φ,
         // q_ff = 2 (sin φ - φ cos φ) / sin³ φ, with cos φ = -f.
         let (q_f, q_ff) = if phi < SERIES_BELOW {
@@ -89,17 +89,25 @@ impl AngleLaw for Bend {
             (2.0 * phi / s, 2.0 * (s + phi * g.f) / (s * s * s))
         };
         let e_f = e_q * q_f;
-        let (grad, exact) = exact_through_f(g, e_f, e_qq * q_f * q_f + e_q * q_ff);
         let hess = match mode {
-            JacobianMode::Exact => exact,
+            JacobianMode::Exact => exact_hessian_through_f(g, e_f, e_qq * q_f * q_f + e_q * q_ff),
             JacobianMode::Solver => gauss_newton(g, e_q),
         };
-        ArmDerivatives { energy, grad, hess }
+        ArmDerivatives {
+            grad: gradient_through_f(g, e_f),
+            hess,
+        }
     }
 }
 
 /// `2 E'(q) Jρᵀ Jρ` with `Jρ = M P_i / r_i`, `M = α I + 2 α' κ κᵀ`,
 /// `α(|κ|²) = φ / (2 sin(φ/2))`.
+///
+/// PERF: written out rather than as products of 3x3 matrices. With
+/// `M² = a I + c κκᵀ` and `P_i κ / r_i = ∂f/∂e_i = g_i`, each block is
+/// `2 E'(q) [a P_i P_j / (r_i r_j) + c g_i g_jᵀ]`, and the projector
+/// products are `P_1 P_1 = I - û1 û1ᵀ`, `P_1 P_2 = I - û1 û1ᵀ - û2 û2ᵀ +
+/// f û1 û2ᵀ`: a handful of outer products.
 fn gauss_newton(g: &AngleGeom, e_q: Real) -> [[Mat3; 2]; 2] {
     let kappa = g.u + g.w;
     let qk = kappa.norm_squared();
@@ -111,19 +119,17 @@ fn gauss_newton(g: &AngleGeom, e_q: Real) -> [[Mat3; 2]; 2] {
         let a = x.asin();
         (a / x, (x / (1.0 - x * x).sqrt() - a) / (8.0 * x * x * x))
     };
-    let m2 = Mat3::identity() * (alpha * alpha)
-        + outer(&kappa, &kappa) * (4.0 * alpha * dalpha + 4.0 * dalpha * dalpha * qk);
-    let p = [
-        (Mat3::identity() - outer(&g.u, &g.u)) / g.r1,
-        (Mat3::identity() - outer(&g.w, &g.w)) / g.r2,
-    ];
-    let mut h = [[Mat3::zeros(); 2]; 2];
-    for i in 0..2 {
-        for j in 0..2 {
-            h[i][j] = p[i] * m2 * p[j] * (2.0 * e_q);
-        }
-    }
-    h
+    let s = 2.0 * e_q;
+    let a = s * alpha * alpha;
+    let c = s * (4.0 * alpha * dalpha + 4.0 * dalpha * dalpha * qk);
+    let uu = outer(&g.u, &g.u);
+    let ww = outer(&g.w, &g.w);
+    let id = Mat3::identity();
+    let h11 = (id - uu) * (a / (g.r1 * g.r1)) + outer(&g.g1, &g.g1) * c;
+    let h22 = (id - ww) * (a / (g.r2 * g.r2)) + outer(&g.g2, &g.g2) * c;
+    let h12 =
+        (id - uu - ww + outer(&g.u, &g.w) * g.f) * (a / (g.r1 * g.r2)) + outer(&g.g1, &g.g2) * c;
+    [[h11, h12], [h12.transpose(), h22]]
 }
 
 #[cfg(test)]

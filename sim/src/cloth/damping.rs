@@ -52,28 +52,38 @@ impl Force for SpringDamping {
         }
     }
 
-    fn accumulate<S: Sink>(&self, x: &[Vec3], v: &[Vec3], mode: JacobianMode, sink: &mut S) {
-        for (e, s) in self.springs.iter().enumerate() {
-            let d = x[s.a] - x[s.b];
-            let l = d.norm();
-            if l <= Real::EPSILON * s.rest || s.k == 0.0 {
-                continue;
-            }
-            let u = d / l;
-            let dv = v[s.a] - v[s.b];
-            let rate = u.dot(&dv);
-            let c = s.k;
-            let (f, dfdv) = pair_blocks(u * (c * rate), outer(&u, &u) * c);
-            let dfdx = match mode {
-                JacobianMode::Solver => None,
-                JacobianMode::Exact => {
-                    let p = Mat3::identity() - outer(&u, &u);
-                    let g = (u * (dv.transpose() * p) + p * rate) * (c / l);
-                    Some(pair_blocks(Vec3::zeros(), g).1)
-                }
-            };
-            sink.add(e, &[s.a, s.b], &f, dfdx.as_ref(), Some(&dfdv));
+    fn element_count(&self) -> usize {
+        self.springs.len()
+    }
+
+    fn add_element<S: Sink>(
+        &self,
+        e: usize,
+        x: &[Vec3],
+        v: &[Vec3],
+        mode: JacobianMode,
+        sink: &mut S,
+    ) {
+        let s = &self.springs[e];
+        let d = x[s.a] - x[s.b];
+        let l = d.norm();
+        if l <= Real::EPSILON * s.rest || s.k == 0.0 {
+            return;
         }
+        let u = d / l;
+        let dv = v[s.a] - v[s.b];
+        let rate = u.dot(&dv);
+        let c = s.k;
+        let (f, dfdv) = pair_blocks(u * (c * rate), outer(&u, &u) * c);
+        let dfdx = match mode {
+            JacobianMode::Solver => None,
+            JacobianMode::Exact => {
+                let p = Mat3::identity() - outer(&u, &u);
+                let g = (u * (dv.transpose() * p) + p * rate) * (c / l);
+                Some(pair_blocks(Vec3::zeros(), g).1)
+            }
+        };
+        sink.add(e, &[s.a, s.b], &f, dfdx.as_ref(), Some(&dfdv));
     }
 }
 

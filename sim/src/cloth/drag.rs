@@ -38,19 +38,29 @@ impl Force for AirDrag {
         }
     }
 
-    fn accumulate<S: Sink>(&self, _x: &[Vec3], v: &[Vec3], _mode: JacobianMode, sink: &mut S) {
-        for (i, &c) in self.coefficient.iter().enumerate() {
-            if c == 0.0 {
-                continue;
-            }
-            sink.add(
-                i,
-                &[i],
-                &[-v[i] * c],
-                None,
-                Some(&[[-Mat3::identity() * c]]),
-            );
+    fn element_count(&self) -> usize {
+        self.coefficient.len()
+    }
+
+    fn add_element<S: Sink>(
+        &self,
+        i: usize,
+        _x: &[Vec3],
+        v: &[Vec3],
+        _mode: JacobianMode,
+        sink: &mut S,
+    ) {
+        let c = self.coefficient[i];
+        if c == 0.0 {
+            return;
         }
+        sink.add(
+            i,
+            &[i],
+            &[-v[i] * c],
+            None,
+            Some(&[[-Mat3::identity() * c]]),
+        );
     }
 }
 

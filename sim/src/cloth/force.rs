@@ -33,8 +33,26 @@ pub trait Force {
     /// Visits each element's particle indices, in element order.
     fn for_each_element(&self, visit: &mut dyn FnMut(&[usize]));
 
-    /// Adds every element's forces and Jacobian blocks to `sink`.
-    fn accumulate<S: Sink>(&self, x: &[Vec3], v: &[Vec3], mode: JacobianMode, sink: &mut S);
+    /// Number of elements.
+    fn element_count(&self) -> usize;
+
+    /// Adds element `e`'s forces and Jacobian blocks to `sink`.
+    fn add_element<S: Sink>(
+        &self,
+        e: usize,
+        x: &[Vec3],
+        v: &[Vec3],
+        mode: JacobianMode,
+        sink: &mut S,
+    );
+
+    /// Adds every element's forces and Jacobian blocks to `sink`, in
+    /// element order.
+    fn accumulate<S: Sink>(&self, x: &[Vec3], v: &[Vec3], mode: JacobianMode, sink: &mut S) {
+        for e in 0..self.element_count() {
+            self.add_element(e, x, v, mode, sink);
+        }
+    }
 }
 
 /// Maps `-∇E` and `-∇²E` of a two-particle element written in terms of

@@ -13,9 +13,9 @@
 //! where `γ = 0`.
 
 use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives};
-use super::angle::{energy_of_square, exact_through_f};
+use super::angle::{energy_of_square, exact_hessian_through_f, gradient_through_f};
 use super::grid::Grid;
-use crate::math::{Mat3, Real, outer};
+use crate::math::{Real, outer};
 use crate::spec::JacobianMode;
 
 /// The shear law.
@@ -61,29 +61,30 @@ impl AngleLaw for Shear {
 
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives {
         let gamma = g.f.asin();
-        let (energy, e_q, e_qq) = energy_of_square(gamma * gamma, c1, c0);
+        let (_, e_q, e_qq) = energy_of_square(gamma * gamma, c1, c0);
         // NOTE: collinear arms (γ = ±π/2) are a degenerate quad; the clamp
         // keeps the numbers finite while the springs restore it.
         let cos = g.sin().max(1e-9);
         // q = γ²: q_f = 2γ / cos γ, q_ff = 2 / cos² γ + 2 γ f / cos³ γ.
         let q_f = 2.0 * gamma / cos;
-        let q_ff = 2.0 / (cos * cos) + 2.0 * gamma * g.f / (cos * cos * cos);
-        let (grad, exact) = exact_through_f(g, e_q * q_f, e_qq * q_f * q_f + e_q * q_ff);
         let hess = match mode {
-            JacobianMode::Exact => exact,
+            JacobianMode::Exact => {
+                let q_ff = 2.0 / (cos * cos) + 2.0 * gamma * g.f / (cos * cos * cos);
+                exact_hessian_through_f(g, e_q * q_f, e_qq * q_f * q_f + e_q * q_ff)
+            }
             JacobianMode::Solver => {
                 let s = 2.0 * e_q / (cos * cos);
-                let gs = [g.g1, g.g2];
-                let mut h = [[Mat3::zeros(); 2]; 2];
-                for i in 0..2 {
-                    for j in 0..2 {
-                        h[i][j] = outer(&gs[i], &gs[j]) * s;
-                    }
-                }
-                h
+                let (a, b) = (g.g1 * s, g.g2 * s);
+                [
+                    [outer(&a, &g.g1), outer(&a, &g.g2)],
+                    [outer(&b, &g.g1), outer(&b, &g.g2)],
+                ]
             }
         };
-        ArmDerivatives { energy, grad, hess }
+        ArmDerivatives {
+            grad: gradient_through_f(g, e_q * q_f),
+            hess,
+        }
     }
 }
 

@@ -99,23 +99,33 @@ impl Force for Stretch {
         }
     }
 
-    fn accumulate<S: Sink>(&self, x: &[Vec3], _v: &[Vec3], mode: JacobianMode, sink: &mut S) {
-        for (e, s) in self.springs.iter().enumerate() {
-            let d = x[s.a] - x[s.b];
-            let l = d.norm();
-            if l <= Real::EPSILON * s.rest {
-                continue; // coincident particles: no direction, no force
-            }
-            let u = d / l;
-            let uu = outer(&u, &u);
-            let mut transverse = 1.0 - s.rest / l;
-            if mode == JacobianMode::Solver {
-                transverse = transverse.max(0.0);
-            }
-            let h = (uu + (Mat3::identity() - uu) * transverse) * s.k;
-            let (f, k) = pair_blocks(u * (s.k * (l - s.rest)), h);
-            sink.add(e, &[s.a, s.b], &f, Some(&k), None);
+    fn element_count(&self) -> usize {
+        self.springs.len()
+    }
+
+    fn add_element<S: Sink>(
+        &self,
+        e: usize,
+        x: &[Vec3],
+        _v: &[Vec3],
+        mode: JacobianMode,
+        sink: &mut S,
+    ) {
+        let s = &self.springs[e];
+        let d = x[s.a] - x[s.b];
+        let l = d.norm();
+        if l <= Real::EPSILON * s.rest {
+            return; // coincident particles: no direction, no force
         }
+        let u = d / l;
+        let uu = outer(&u, &u);
+        let mut transverse = 1.0 - s.rest / l;
+        if mode == JacobianMode::Solver {
+            transverse = transverse.max(0.0);
+        }
+        let h = (uu + (Mat3::identity() - uu) * transverse) * s.k;
+        let (f, k) = pair_blocks(u * (s.k * (l - s.rest)), h);
+        sink.add(e, &[s.a, s.b], &f, Some(&k), None);
     }
 }
 

@@ -9,6 +9,16 @@
 //! PSD) forms. The pattern and, for every element of every force, the slots
 //! its blocks go to are computed once in [`System::new`]; assembly is then
 //! a pass over elements with indexed adds and no allocation.
+//!
+//! PERF: rows are split into one band per thread, and each band's task
+//! evaluates every element that touches its rows and writes only its own
+//! rows (an element on a band's edge is evaluated by both). Each row then
+//! receives its contributions in the one global element order whatever the
+//! number of bands, so `A` and `b` are bit for bit those of a serial pass.
+
+use std::ops::Range;
+
+use rayon::prelude::*;
 
 use super::bsr::BlockCsr;
 use crate::cloth::{Force, ForceModel, Sink};
@@ -24,9 +34,28 @@ pub struct System {
     pub b: Vec<Vec3>,
     /// Per force term, per element, the `N x N` slots of its blocks.
     slots: [Vec<u32>; TERMS],
+    /// The bands of rows assembled in parallel.
+    bands: Vec<Band>,
 }
 
 const TERMS: usize = 5;
+
+/// Fewest rows worth a band of their own: a particle's elements cost about
+/// a microsecond, so a few hundred rows outweigh handing the band to
+/// another thread.
+const BAND_MIN: usize = 256;
+
+/// Rows assembled by one task, and per force term the elements touching
+/// them.
+#[derive(Debug, Clone)]
+struct Band {
+    rows: Range<usize>,
+    /// The positions of its rows' blocks in `A.values`.
+    slots: Range<usize>,
+    /// Each row's diagonal slot.
+    diag: Vec<usize>,
+    elements: [Vec<u32>; TERMS],
+}
 
 /// Inputs of one assembly.
 #[derive(Debug, Clone, Copy)]
@@ -69,8 +98,22 @@ fn couplings<F: Force>(force: &F, pairs: &mut Vec<(usize, usize)>) {
     });
 }
 
+/// The elements of `force` with a particle in `rows`, in order.
+fn touching<F: Force>(force: &F, rows: &Range<usize>) -> Vec<u32> {
+    let mut out = Vec::new();
+    let mut e = 0u32;
+    force.for_each_element(&mut |idx| {
+        if idx.iter().any(|p| rows.contains(p)) {
+            out.push(e);
+        }
+        e += 1;
+    });
+    out
+}
+
 impl System {
-    /// The pattern and slot tables for `model` on `n` particles.
+    /// The pattern and slot tables for `model` on `n` particles, with one
+    /// band of rows per thread of the current pool.
     pub fn new(n: usize, model: &ForceModel) -> Self {
         let mut pairs = Vec::new();
         couplings(&model.stretch, &mut pairs);
@@ -85,49 +128,106 @@ impl System {
             slot_table(&model.shear, &a),
             slot_table(&model.drag, &a),
         ];
+        let count = rayon::current_num_threads().min(n / BAND_MIN).max(1);
+        let bands = (0..count)
+            .map(|k| {
+                let rows = k * n / count..(k + 1) * n / count;
+                Band {
+                    slots: a.slots_of_rows(rows.clone()),
+                    diag: rows.clone().map(|r| a.diag_slot(r)).collect(),
+                    elements: [
+                        touching(&model.stretch, &rows),
+                        touching(&model.damping, &rows),
+                        touching(&model.bend, &rows),
+                        touching(&model.shear, &rows),
+                        touching(&model.drag, &rows),
+                    ],
+                    rows,
+                }
+            })
+            .collect();
         Self {
             a,
             b: vec![Vec3::zeros(); n],
             slots,
+            bands,
         }
     }
 
     /// Writes `A` and `b` for one step (eq. [20]).
     pub fn assemble(&mut self, model: &ForceModel, input: &AssemblyInput<'_>) {
-        let h = input.h;
-        self.a.clear_values();
-        for (i, (bi, &m)) in self.b.iter_mut().zip(input.mass).enumerate() {
-            *bi = input.gravity * (h * m);
-            let d = self.a.diag_slot(i);
-            self.a.values[d] = Mat3::identity() * m;
+        // Each band's rows, their slots and their part of `b`.
+        let mut work = Vec::with_capacity(self.bands.len());
+        let (mut values, mut b) = (&mut self.a.values[..], &mut self.b[..]);
+        for band in &self.bands {
+            let (vals, rest_v) = values.split_at_mut(band.slots.len());
+            let (bs, rest_b) = b.split_at_mut(band.rows.len());
+            work.push((band, vals, bs));
+            (values, b) = (rest_v, rest_b);
         }
-        // w = h v0 + y: the displacement K multiplies in b.
-        let mut sink = AssemblySink {
-            values: &mut self.a.values,
-            b: &mut self.b,
-            v: input.v,
-            y: input.y,
-            h,
-            slots: &[],
+        let slots = &self.slots;
+        let task = |(band, values, b): (&Band, &mut [Mat3], &mut [Vec3])| {
+            assemble_band(model, input, slots, band, values, b);
         };
-        let mode = JacobianMode::Solver;
-        sink.slots = &self.slots[0];
-        model.stretch.accumulate(input.x, input.v, mode, &mut sink);
-        sink.slots = &self.slots[1];
-        model.damping.accumulate(input.x, input.v, mode, &mut sink);
-        sink.slots = &self.slots[2];
-        model.bend.accumulate(input.x, input.v, mode, &mut sink);
-        sink.slots = &self.slots[3];
-        model.shear.accumulate(input.x, input.v, mode, &mut sink);
-        sink.slots = &self.slots[4];
-        model.drag.accumulate(input.x, input.v, mode, &mut sink);
+        if work.len() > 1 {
+            work.into_par_iter().for_each(task);
+        } else {
+            work.into_iter().for_each(task);
+        }
     }
 }
 
-/// Writes element blocks into `A` and `b` through precomputed slots.
+/// One band: mass and gravity on its rows, then every force's elements
+/// touching it, in element order.
+fn assemble_band(
+    model: &ForceModel,
+    input: &AssemblyInput<'_>,
+    slots: &[Vec<u32>; TERMS],
+    band: &Band,
+    values: &mut [Mat3],
+    b: &mut [Vec3],
+) {
+    let h = input.h;
+    let base = band.slots.start;
+    values.fill(Mat3::zeros());
+    for (k, row) in band.rows.clone().enumerate() {
+        let m = input.mass[row];
+        b[k] = input.gravity * (h * m);
+        values[band.diag[k] - base] = Mat3::identity() * m;
+    }
+    let mut sink = AssemblySink {
+        values,
+        b,
+        rows: band.rows.clone(),
+        base,
+        v: input.v,
+        y: input.y,
+        h,
+        slots: &[],
+    };
+    let mode = JacobianMode::Solver;
+    let (x, v) = (input.x, input.v);
+    let mut run = |t: usize, f: &dyn Fn(usize, &mut AssemblySink<'_>)| {
+        sink.slots = &slots[t];
+        for &e in &band.elements[t] {
+            f(e as usize, &mut sink);
+        }
+    };
+    run(0, &|e, s| model.stretch.add_element(e, x, v, mode, s));
+    run(1, &|e, s| model.damping.add_element(e, x, v, mode, s));
+    run(2, &|e, s| model.bend.add_element(e, x, v, mode, s));
+    run(3, &|e, s| model.shear.add_element(e, x, v, mode, s));
+    run(4, &|e, s| model.drag.add_element(e, x, v, mode, s));
+}
+
+/// Writes element blocks into one band of `A` and `b` through precomputed
+/// slots; blocks of rows outside the band are left to its neighbour.
 struct AssemblySink<'a> {
     values: &'a mut [Mat3],
     b: &'a mut [Vec3],
+    rows: Range<usize>,
+    /// Slot of `values[0]`.
+    base: usize,
     v: &'a [Vec3],
     y: &'a [Vec3],
     h: Real,
@@ -145,21 +245,30 @@ impl Sink for AssemblySink<'_> {
         dfdv: Option<&[[Mat3; N]; N]>,
     ) {
         let h = self.h;
+        let h2 = h * h;
         let slots = &self.slots[element * N * N..(element + 1) * N * N];
+        // The displacement `h v0 + y` that K multiplies in b, once per
+        // particle of the element.
+        let w: [Vec3; N] = std::array::from_fn(|q| self.v[idx[q]] * h + self.y[idx[q]]);
         for a in 0..N {
+            if !self.rows.contains(&idx[a]) {
+                continue;
+            }
             let mut rhs = f[a];
-            for q in 0..N {
-                let slot = slots[a * N + q] as usize;
-                if let Some(k) = dfdx {
-                    let k = &k[a][q];
-                    self.values[slot] -= k * (h * h);
-                    rhs += k * (self.v[idx[q]] * h + self.y[idx[q]]);
-                }
-                if let Some(d) = dfdv {
-                    self.values[slot] -= d[a][q] * h;
+            let row = &slots[a * N..(a + 1) * N];
+            if let Some(k) = dfdx {
+                for q in 0..N {
+                    let block = &k[a][q];
+                    self.values[row[q] as usize - self.base] -= block * h2;
+                    rhs += block * w[q];
                 }
             }
-            self.b[idx[a]] += rhs * h;
+            if let Some(d) = dfdv {
+                for q in 0..N {
+                    self.values[row[q] as usize - self.base] -= d[a][q] * h;
+                }
+            }
+            self.b[idx[a] - self.rows.start] += rhs * h;
         }
     }
 }

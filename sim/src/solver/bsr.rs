@@ -78,6 +78,11 @@ impl BlockCsr {
         &self.values[self.diag[i]]
     }
 
+    /// The positions in `values` of rows `rows`' blocks.
+    pub fn slots_of_rows(&self, rows: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        self.row_ptr[rows.start]..self.row_ptr[rows.end]
+    }
+
     /// Sets every stored block to zero, keeping the pattern.
     pub fn clear_values(&mut self) {
         self.values.fill(Mat3::zeros());

@@ -72,7 +72,7 @@ impl Preconditioner for AlternatingLines {
     }
 
     fn apply(&mut self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
-        let Some((m, warp, weft)) = &self.parts else {
+        let Some((_, warp, weft)) = &self.parts else {
             out.copy_from_slice(r);
             return;
         };
@@ -81,10 +81,10 @@ impl Preconditioner for AlternatingLines {
         self.x.clear();
         self.x.resize(r.len(), Vec3f::zeros());
         let s = &mut self.scratch;
-        warp.sweep(m, &self.b, &mut self.x, true, s);
-        weft.sweep(m, &self.b, &mut self.x, true, s);
-        weft.sweep(m, &self.b, &mut self.x, false, s);
-        warp.sweep(m, &self.b, &mut self.x, false, s);
+        warp.sweep(&self.b, &mut self.x, true, s);
+        weft.sweep(&self.b, &mut self.x, true, s);
+        weft.sweep(&self.b, &mut self.x, false, s);
+        warp.sweep(&self.b, &mut self.x, false, s);
         for (o, x) in out.iter_mut().zip(&self.x) {
             *o = x.cast::<f64>();
         }

@@ -55,11 +55,30 @@ impl Level {
     }
 }
 
+/// The shape of a cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CycleShape {
+    /// Smoothing sweeps before and after the coarse correction.
+    pub sweeps: usize,
+    /// Coarse corrections per level: 1 is a V-cycle, 2 a W-cycle.
+    pub coarse_cycles: usize,
+}
+
+impl Default for CycleShape {
+    fn default() -> Self {
+        Self {
+            sweeps: 1,
+            coarse_cycles: 1,
+        }
+    }
+}
+
 /// The multigrid preconditioner for an `nu x nv` grid.
 #[derive(Debug, Clone)]
 pub struct Multigrid {
     nu: usize,
     nv: usize,
+    shape: CycleShape,
     /// Levels, finest first, and the transfer below each but the last.
     levels: Vec<Level>,
     transfers: Vec<Transfer>,
@@ -73,9 +92,15 @@ pub struct Multigrid {
 impl Multigrid {
     /// A hierarchy for an `nu x nv` grid (built at the first update).
     pub fn new(nu: usize, nv: usize) -> Self {
+        Self::with_shape(nu, nv, CycleShape::default())
+    }
+
+    /// A hierarchy with cycles of `shape`.
+    pub fn with_shape(nu: usize, nv: usize, shape: CycleShape) -> Self {
         Self {
             nu,
             nv,
+            shape,
             levels: Vec::new(),
             transfers: Vec::new(),
             coarsest: None,
@@ -105,7 +130,7 @@ impl Multigrid {
         }
     }
 
-    /// One V-cycle at level `k` on `levels[k].b`, leaving the result in
+    /// One cycle at level `k` on `levels[k].b`, leaving the result in
     /// `levels[k].x`.
     fn cycle(&mut self, k: usize) {
         if k + 1 == self.levels.len() {
@@ -120,25 +145,30 @@ impl Multigrid {
             let level = &mut self.levels[k];
             level.x.fill(Vec3f::zeros());
             let s = &mut self.scratch;
-            level.warp.sweep(&level.a, &level.b, &mut level.x, true, s);
-            level.weft.sweep(&level.a, &level.b, &mut level.x, true, s);
-            level.a.residual(&level.b, &level.x, &mut level.r);
+            for _ in 0..self.shape.sweeps {
+                level.warp.sweep(&level.b, &mut level.x, true, s);
+                level.weft.sweep(&level.b, &mut level.x, true, s);
+            }
         }
-        {
-            let (fine, coarse) = self.levels.split_at_mut(k + 1);
-            let filter = if k == 0 { &self.filter[..] } else { &[] };
-            self.transfers[k].restrict(&fine[k].r, filter, &mut coarse[0].b);
-        }
-        self.cycle(k + 1);
-        {
+        for _ in 0..self.shape.coarse_cycles {
+            {
+                let (fine, coarse) = self.levels.split_at_mut(k + 1);
+                let level = &mut fine[k];
+                level.a.residual(&level.b, &level.x, &mut level.r);
+                let filter = if k == 0 { &self.filter[..] } else { &[] };
+                self.transfers[k].restrict(&level.r, filter, &mut coarse[0].b);
+            }
+            self.cycle(k + 1);
             let (fine, coarse) = self.levels.split_at_mut(k + 1);
             let filter = if k == 0 { &self.filter[..] } else { &[] };
             self.transfers[k].prolong_add(&coarse[0].x, filter, &mut fine[k].x);
         }
         let level = &mut self.levels[k];
         let s = &mut self.scratch;
-        level.weft.sweep(&level.a, &level.b, &mut level.x, false, s);
-        level.warp.sweep(&level.a, &level.b, &mut level.x, false, s);
+        for _ in 0..self.shape.sweeps {
+            level.weft.sweep(&level.b, &mut level.x, false, s);
+            level.warp.sweep(&level.b, &mut level.x, false, s);
+        }
     }
 }
 

@@ -18,6 +18,7 @@
 //! smoother.
 
 use super::grid_matrix::{Block, GridMatrix, Vec3f};
+use crate::parallel;
 
 /// The lines' direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -28,17 +29,31 @@ pub enum Direction {
     V,
 }
 
-/// One family of lines with its factors.
+/// One family of lines with its factors. Everything a sweep reads is
+/// stored in line order (node `t` of line `l` at `l * len + t`), so a
+/// line's data is contiguous whichever way it runs through the grid.
 #[derive(Debug, Clone)]
 pub struct LineFamily {
     direction: Direction,
-    /// The stencil's couplings to other lines: `(k, di, dj)`.
-    off_line: Vec<(usize, i32, i32)>,
-    /// Per node: inverse of the diagonal Cholesky factor, and the factors
-    /// coupling it to the previous and the one before on its line.
-    inv_diag: Vec<Block>,
+    lines: usize,
+    len: usize,
+    /// Grid index of each node, in line order.
+    nodes: Vec<u32>,
+    /// Per node (in line order), its couplings to other lines: `width`
+    /// blocks and the grid indices they multiply; a missing neighbour has
+    /// a zero block and the node's own index, so the gather has no branch.
+    width: usize,
+    off_blocks: Vec<Block>,
+    off_index: Vec<u32>,
+    /// Per node (in line order): the inverse of the diagonal Cholesky
+    /// factor and the factors coupling it to the previous node and the
+    /// one before, with their transposes for the backward substitution.
+    inv: Vec<Block>,
     prev1: Vec<Block>,
     prev2: Vec<Block>,
+    inv_t: Vec<Block>,
+    prev1_t: Vec<Block>,
+    prev2_t: Vec<Block>,
 }
 
 /// Scratch of a sweep: one buffer per line, so the lines of a colour can
@@ -51,87 +66,122 @@ pub struct LineScratch {
 impl LineFamily {
     /// Factors for the lines of `direction` on `a`'s grid.
     pub fn new(direction: Direction, a: &GridMatrix) -> Self {
+        let (lines, len) = match direction {
+            Direction::U => (a.nv, a.nu),
+            Direction::V => (a.nu, a.nv),
+        };
         let n = a.len();
-        let off_line = a
+        let nodes = (0..lines)
+            .flat_map(|l| {
+                (0..len).map(move |t| match direction {
+                    Direction::U => (t + l * a.nu) as u32,
+                    Direction::V => (l + t * a.nu) as u32,
+                })
+            })
+            .collect();
+        let width = a
             .offsets()
             .iter()
-            .enumerate()
-            .filter(|&(_, &(di, dj))| match direction {
-                Direction::U => dj != 0,
-                Direction::V => di != 0,
-            })
-            .map(|(k, &(di, dj))| (k, di, dj))
-            .collect();
+            .filter(|&&(di, dj)| !on_line(direction, di, dj))
+            .count();
         let mut f = Self {
             direction,
-            off_line,
-            inv_diag: vec![Block::zeros(); n],
+            lines,
+            len,
+            nodes,
+            width,
+            off_blocks: vec![Block::zeros(); n * width],
+            off_index: vec![0; n * width],
+            inv: vec![Block::zeros(); n],
             prev1: vec![Block::zeros(); n],
             prev2: vec![Block::zeros(); n],
+            inv_t: vec![Block::zeros(); n],
+            prev1_t: vec![Block::zeros(); n],
+            prev2_t: vec![Block::zeros(); n],
         };
         f.factor(a);
         f
     }
 
-    fn step(&self) -> (i32, i32) {
-        match self.direction {
+    /// Copies `a`'s couplings between lines and factors every line. A
+    /// pivot that is not positive (the line block is not SPD to single
+    /// precision) is replaced by the diagonal's magnitude, which keeps the
+    /// smoother SPD at some cost in accuracy.
+    pub fn factor(&mut self, a: &GridMatrix) {
+        let (dir, len) = (self.direction, self.len);
+        let (sx, sy) = match dir {
             Direction::U => (1, 0),
             Direction::V => (0, 1),
-        }
-    }
-
-    /// Number of lines and their length on `a`'s grid.
-    fn shape(&self, a: &GridMatrix) -> (usize, usize) {
-        match self.direction {
-            Direction::U => (a.nv, a.nu),
-            Direction::V => (a.nu, a.nv),
-        }
-    }
-
-    /// Node `t` of line `l`.
-    #[inline]
-    fn node(&self, a: &GridMatrix, l: usize, t: usize) -> usize {
-        match self.direction {
-            Direction::U => t + l * a.nu,
-            Direction::V => l + t * a.nu,
-        }
-    }
-
-    /// Factors every line of `a`. A pivot that is not positive (the line
-    /// block is not SPD to single precision) is replaced by the diagonal's
-    /// magnitude, which keeps the smoother SPD at some cost in accuracy.
-    pub fn factor(&mut self, a: &GridMatrix) {
-        let (sx, sy) = self.step();
+        };
         let k1 = a.offset_index(-sx, -sy);
         let k2 = a.offset_index(-2 * sx, -2 * sy);
         let k0 = a.offset_index(0, 0);
-        let (lines, len) = self.shape(a);
-        for l in 0..lines {
-            for t in 0..len {
-                let p = self.node(a, l, t);
-                let row = a.row(p);
-                let get = |k: Option<usize>| k.map_or(Block::zeros(), |k| row[k]);
-                let mut l2 = Block::zeros();
-                let mut l1 = Block::zeros();
-                let mut d = get(k0);
-                if t >= 2 {
-                    let p2 = self.node(a, l, t - 2);
-                    l2 = get(k2) * self.inv_diag[p2].transpose();
-                    d -= l2 * l2.transpose();
-                }
-                if t >= 1 {
-                    let p1 = self.node(a, l, t - 1);
-                    let mut m = get(k1);
-                    if t >= 2 {
-                        m -= l2 * self.prev1[p1].transpose();
+        let off: Vec<(usize, i32, i32)> = a
+            .offsets()
+            .iter()
+            .enumerate()
+            .filter(|&(_, &(di, dj))| !on_line(dir, di, dj))
+            .map(|(k, &(di, dj))| (k, di, dj))
+            .collect();
+        let nodes = &self.nodes;
+        let width = self.width;
+        // Couplings to other lines, node by node.
+        parallel::for_chunks2(
+            &mut self.off_blocks,
+            &mut self.off_index,
+            |start, blocks, index| {
+                for (s, (b, ix)) in blocks.iter_mut().zip(index.iter_mut()).enumerate() {
+                    let (node, k) = ((start + s) / width, (start + s) % width);
+                    let p = nodes[node] as usize;
+                    let (i, j) = (p % a.nu, p / a.nu);
+                    let (slot, _, _) = off[k];
+                    match a.neighbour(i, j, slot) {
+                        Some(q) => {
+                            *b = a.row(p)[slot];
+                            *ix = q as u32;
+                        }
+                        None => {
+                            *b = Block::zeros();
+                            *ix = p as u32;
+                        }
                     }
-                    l1 = m * self.inv_diag[p1].transpose();
-                    d -= l1 * l1.transpose();
                 }
-                self.prev1[p] = l1;
-                self.prev2[p] = l2;
-                self.inv_diag[p] = inverse_cholesky(&d, &get(k0));
-            }
+            },
+        );
+        // Each line's Cholesky factors, lines in parallel.
+        let get = |p: usize, k: Option<usize>| k.map_or(Block::zeros(), |k| a.row(p)[k]);
+        let factors: Vec<[Block; 3]> = {
+            let mut out = vec![[Block::zeros(); 3]; nodes.len()];
+            parallel::for_rows(&mut out, len, |l, line| {
+                for t in 0..len {
+                    let p = nodes[l * len + t] as usize;
+                    let mut l2 = Block::zeros();
+                    let mut l1 = Block::zeros();
+                    let mut d = get(p, k0);
+                    if t >= 2 {
+                        l2 = get(p, k2) * line[t - 2][0].transpose();
+                        d -= l2 * l2.transpose();
+                    }
+                    if t >= 1 {
+                        let mut m = get(p, k1);
+                        if t >= 2 {
+                            m -= l2 * line[t - 1][1].transpose();
+                        }
+                        l1 = m * line[t - 1][0].transpose();
+                        d -= l1 * l1.transpose();
+                    }
+                    line[t] = [inverse_cholesky(&d, &get(p, k0)), l1, l2];
+                }
+            });
+            out
+        };
+        for (s, [inv, p1, p2]) in factors.into_iter().enumerate() {
+            self.inv[s] = inv;
+            self.prev1[s] = p1;
+            self.prev2[s] = p2;
+            self.inv_t[s] = inv.transpose();
+            self.prev1_t[s] = p1.transpose();
+            self.prev2_t[s] = p2.transpose();
         }
     }
 
@@ -139,27 +189,21 @@ impl LineFamily {
     /// reversed: each line's nodes become the exact solution of its block
     /// given the others' current values. The lines of a colour are solved
     /// in parallel (each into its own buffer), then written back.
-    pub fn sweep(
-        &self,
-        a: &GridMatrix,
-        b: &[Vec3f],
-        x: &mut [Vec3f],
-        forward: bool,
-        scratch: &mut LineScratch,
-    ) {
-        let (lines, len) = self.shape(a);
+    pub fn sweep(&self, b: &[Vec3f], x: &mut [Vec3f], forward: bool, scratch: &mut LineScratch) {
+        let (lines, len) = (self.lines, self.len);
         scratch.lines.resize(lines * len, Vec3f::zeros());
         for c in 0..3 {
             let colour = if forward { c } else { 2 - c };
             let xr: &[Vec3f] = x;
-            crate::parallel::for_rows(&mut scratch.lines, len, |l, out| {
+            parallel::for_rows(&mut scratch.lines, len, |l, out| {
                 if l % 3 == colour {
-                    self.solve_line(a, l, b, xr, out);
+                    self.solve_line(l, b, xr, out);
                 }
             });
             for l in (colour..lines).step_by(3) {
+                let at = l * len;
                 for t in 0..len {
-                    x[self.node(a, l, t)] = scratch.lines[l * len + t];
+                    x[self.nodes[at + t] as usize] = scratch.lines[at + t];
                 }
             }
         }
@@ -167,49 +211,48 @@ impl LineFamily {
 
     /// Solves line `l`'s block for `b` minus its couplings to the other
     /// lines at their values in `x`, into `out`.
-    fn solve_line(&self, a: &GridMatrix, l: usize, b: &[Vec3f], x: &[Vec3f], out: &mut [Vec3f]) {
-        let len = out.len();
-        let (nu, nv) = (a.nu as i32, a.nv as i32);
+    #[inline]
+    fn solve_line(&self, l: usize, b: &[Vec3f], x: &[Vec3f], out: &mut [Vec3f]) {
+        let len = self.len;
+        let at = l * len;
+        let w = self.width;
+        // rhs, then L y = rhs in the same pass.
         for t in 0..len {
-            let p = self.node(a, l, t);
-            let (i, j) = ((p % a.nu) as i32, (p / a.nu) as i32);
-            let row = a.row(p);
-            let mut acc = b[p];
-            // PERF: away from the border every neighbour exists and its
-            // index is a fixed shift; only border nodes check.
-            let inside = i >= 2 && j >= 2 && i < nu - 2 && j < nv - 2;
-            for &(k, di, dj) in &self.off_line {
-                let (qi, qj) = (i + di, j + dj);
-                if inside || (qi >= 0 && qj >= 0 && qi < nu && qj < nv) {
-                    acc -= row[k] * x[(qi + qj * nu) as usize];
-                }
+            let s = at + t;
+            let mut acc = b[self.nodes[s] as usize];
+            let blocks = &self.off_blocks[s * w..(s + 1) * w];
+            let index = &self.off_index[s * w..(s + 1) * w];
+            for (m, &q) in blocks.iter().zip(index) {
+                acc -= m * x[q as usize];
             }
-            out[t] = acc;
-        }
-        // L y = rhs.
-        for t in 0..len {
-            let p = self.node(a, l, t);
-            let mut s = out[t];
             if t >= 1 {
-                s -= self.prev1[p] * out[t - 1];
+                acc -= self.prev1[s] * out[t - 1];
             }
             if t >= 2 {
-                s -= self.prev2[p] * out[t - 2];
+                acc -= self.prev2[s] * out[t - 2];
             }
-            out[t] = self.inv_diag[p] * s;
+            out[t] = self.inv[s] * acc;
         }
         // Lᵀ x = y.
         for t in (0..len).rev() {
-            let p = self.node(a, l, t);
-            let mut s = out[t];
+            let s = at + t;
+            let mut acc = out[t];
             if t + 1 < len {
-                s -= self.prev1[self.node(a, l, t + 1)].transpose() * out[t + 1];
+                acc -= self.prev1_t[s + 1] * out[t + 1];
             }
             if t + 2 < len {
-                s -= self.prev2[self.node(a, l, t + 2)].transpose() * out[t + 2];
+                acc -= self.prev2_t[s + 2] * out[t + 2];
             }
-            out[t] = self.inv_diag[p].transpose() * s;
+            out[t] = self.inv_t[s] * acc;
         }
+    }
+}
+
+/// Whether offset `(di, dj)` stays on a line of `direction`.
+fn on_line(direction: Direction, di: i32, dj: i32) -> bool {
+    match direction {
+        Direction::U => dj == 0,
+        Direction::V => di == 0,
     }
 }
 
@@ -289,7 +332,7 @@ mod tests {
                 .map(|k| Vec3f::new(1.0, (k as f32).sin(), -0.5))
                 .collect();
             let mut x = vec![Vec3f::zeros(); nu * nv];
-            family.sweep(&a, &b, &mut x, true, &mut LineScratch::default());
+            family.sweep(&b, &mut x, true, &mut LineScratch::default());
             let mut r = vec![Vec3f::zeros(); nu * nv];
             a.residual(&b, &x, &mut r);
             let worst = r.iter().map(|v| v.amax()).fold(0.0, f32::max);

@@ -10,6 +10,6 @@ mod lines;
 mod transfer;
 
 pub use grid_matrix::{Block, GridMatrix, Vec3f};
-pub use hierarchy::Multigrid;
+pub use hierarchy::{CycleShape, Multigrid};
 pub use lines::{Direction, LineFamily, LineScratch};
 pub use transfer::{Axis, Transfer};
