@@ -11,6 +11,10 @@ pub struct Cli {
     /// Log as JSON lines instead of text.
     #[arg(long, global = true, env = "DRAPERY_LOG_JSON")]
     pub log_json: bool,
+    /// Solver threads (default: every core). Results are bit for bit the
+    /// same whatever the number; the service's workers share this pool.
+    #[arg(long, global = true, env = "DRAPERY_THREADS", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub threads: Option<u16>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -173,6 +177,12 @@ pub struct ScaleArgs {
     /// Scene to scale (its grid is replaced); default: the sphere drape.
     #[arg(long)]
     pub spec: Option<PathBuf>,
+    /// Preconditioners to compare, each at every size and thread count.
+    #[arg(long, value_delimiter = ',', default_value = "lines,multigrid")]
+    pub preconditioners: Vec<drapery_sim::spec::PreconditionerKind>,
+    /// Thread counts to compare (each run in a pool of that size).
+    #[arg(long, value_delimiter = ',', default_value = "1,2", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub threads: Vec<u16>,
 }
 
 /// `drapery bench precision`.

@@ -6,3 +6,4 @@ pub mod commands;
 pub mod logging;
 pub mod service;
 pub mod specfile;
+pub mod threads;

@@ -9,6 +9,10 @@ use drapery::commands;
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     drapery::logging::init(cli.log_json);
+    if let Err(e) = drapery::threads::init(cli.threads) {
+        eprintln!("error: --threads: {e}");
+        return std::process::ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Run(args) => commands::run::run(&args),
         Command::Validate(args) => commands::validate::run(&args),

@@ -14,6 +14,10 @@ fn bench_scale_writes_csv_and_svg() {
             "6,10",
             "--duration",
             "0.05",
+            "--preconditioners",
+            "lines,multigrid",
+            "--threads",
+            "1,2",
             "--out",
         ])
         .arg(&out)
@@ -22,13 +26,16 @@ fn bench_scale_writes_csv_and_svg() {
     assert!(status.success());
     let csv = std::fs::read_to_string(out.join("scale.csv")).expect("scale.csv");
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines.len(), 3, "{csv}");
-    assert!(lines[0].starts_with("n,particles,steps,"));
-    assert!(lines[1].starts_with("6,36,12,"), "{csv}");
-    assert!(lines[2].starts_with("10,100,12,"), "{csv}");
+    // Every size with every preconditioner and thread count.
+    assert_eq!(lines.len(), 1 + 2 * 2 * 2, "{csv}");
+    assert!(lines[0].starts_with("n,preconditioner,threads,particles,steps,"));
+    assert!(lines[1].starts_with("6,lines,1,36,12,"), "{csv}");
+    assert!(lines[4].starts_with("6,multigrid,2,36,12,"), "{csv}");
+    assert!(lines[8].starts_with("10,multigrid,2,100,12,"), "{csv}");
+    assert!(lines[0].contains("solve_share"), "{csv}");
     let svg = std::fs::read_to_string(out.join("scale.svg")).expect("scale.svg");
     assert!(
-        svg.starts_with("<svg") && svg.contains("fit:"),
+        svg.starts_with("<svg") && svg.contains("lines, 1 thread: ") && svg.contains(" · N^"),
         "{}",
         &svg[..200.min(svg.len())]
     );

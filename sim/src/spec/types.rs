@@ -224,6 +224,43 @@ pub enum PreconditionerKind {
     Multigrid,
 }
 
+impl PreconditionerKind {
+    /// Every preconditioner.
+    pub const ALL: [PreconditionerKind; 4] = [
+        PreconditionerKind::Jacobi,
+        PreconditionerKind::BlockJacobi,
+        PreconditionerKind::Lines,
+        PreconditionerKind::Multigrid,
+    ];
+
+    /// The name a spec uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            PreconditionerKind::Jacobi => "jacobi",
+            PreconditionerKind::BlockJacobi => "block_jacobi",
+            PreconditionerKind::Lines => "lines",
+            PreconditionerKind::Multigrid => "multigrid",
+        }
+    }
+}
+
+impl std::str::FromStr for PreconditionerKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|k| k.name()).collect();
+                format!(
+                    "unknown preconditioner {s:?}; expected one of {}",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
 /// Which Jacobian the force terms produce.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum JacobianMode {
