@@ -2,10 +2,19 @@
 //! `E_b = 1/2 (C_b1 φ² + C_b0 |φ|)` with `φ = π - θ` at the middle of every
 //! three consecutive particles of a warp or weft line.
 //!
-//! Resolution independence: a hinge of spacing `L` and width `w` covers the
-//! area `L w` with curvature `κ ≈ φ / L`; the continuum energy
-//! `1/2 B κ² L w` gives `C_b1 = B w / L` (`= B` on a square grid). The
-//! threshold term takes `C_b0 = bend_threshold · w`.
+//! Resolution independence: a hinge turns by `φ` between the midpoints of
+//! its two arms, over the arc `ℓ = (L1 + L2) / 2`, so its curvature is
+//! `κ ≈ φ / ℓ`, and it stands for the strip `ℓ w` of cloth (`w` its width
+//! across the line); the continuum energy `1/2 B κ² ℓ w` gives
+//! `C_b1 = B w / ℓ` (`= B` inside a square grid). The threshold term takes
+//! `C_b0 = bend_threshold · w`.
+//!
+//! At a clamp (an arm whose two particles are both pinned, so its direction
+//! is held) the turning happens between the clamp and the midpoint of the
+//! free arm: `ℓ = L2 / 2`, twice the stiffness. With the interior value
+//! there instead, the clamp is too soft by a constant factor over one
+//! spacing, and a clamped cantilever converges only at first order in the
+//! spacing; with it, at second order (`sim/tests/elastica.rs`).
 //!
 //! `φ² = arccos(-f)²` is an analytic function of `f` even at the straight
 //! configuration (`φ = 0`), so the exact Hessian follows through `f`, with
@@ -33,28 +42,36 @@ const SERIES_BELOW: Real = 1e-3;
 
 impl Bend {
     /// Hinges along every warp and weft line, rigidity `b` (N·m) and
-    /// threshold `b0` (N·m per metre of hinge width).
-    pub fn on_grid(grid: &Grid, b: Real, b0: Real) -> AngleForce<Bend> {
+    /// threshold `b0` (N·m per metre of hinge width); `pinned` marks held
+    /// particles (empty: none), which makes clamps.
+    pub fn on_grid(grid: &Grid, b: Real, b0: Real, pinned: &[bool]) -> AngleForce<Bend> {
         let (nu, nv, du, dv) = (grid.nu, grid.nv, grid.du, grid.dv);
+        let held = |p: usize| pinned.get(p).copied().unwrap_or(false);
         let mut el = Vec::new();
+        let mut hinge = |idx: [usize; 3], spacing: Real, w: Real| {
+            // Half of each arm that can turn.
+            let free = |a: usize, b: usize| if held(a) && held(b) { 0.0 } else { 0.5 };
+            let arc = spacing * (free(idx[0], idx[1]) + free(idx[1], idx[2]));
+            if arc > 0.0 {
+                el.push(AngleElement {
+                    idx,
+                    c1: b * w / arc,
+                    c0: b0 * w,
+                });
+            }
+        };
         for j in 0..nv {
             let w = Grid::edge_share(j, nv) * dv;
             for i in 1..nu.saturating_sub(1) {
-                el.push(AngleElement {
-                    idx: [grid.index(i - 1, j), grid.index(i, j), grid.index(i + 1, j)],
-                    c1: b * w / du,
-                    c0: b0 * w,
-                });
+                let idx = [grid.index(i - 1, j), grid.index(i, j), grid.index(i + 1, j)];
+                hinge(idx, du, w);
             }
         }
         for i in 0..nu {
             let w = Grid::edge_share(i, nu) * du;
             for j in 1..nv.saturating_sub(1) {
-                el.push(AngleElement {
-                    idx: [grid.index(i, j - 1), grid.index(i, j), grid.index(i, j + 1)],
-                    c1: b * w / dv,
-                    c0: b0 * w,
-                });
+                let idx = [grid.index(i, j - 1), grid.index(i, j), grid.index(i, j + 1)];
+                hinge(idx, dv, w);
             }
         }
         AngleForce::new(el)
@@ -140,19 +157,24 @@ mod tests {
 
     #[test]
     fn bend_force_and_jacobian_match_finite_differences() {
-        fdcheck::check_on_random_grids(|g| Bend::on_grid(g, 1.0e-3, 0.0));
+        fdcheck::check_on_random_grids(|g| Bend::on_grid(g, 1.0e-3, 0.0, &[]));
     }
 
     #[test]
     fn bend_threshold_term_matches_finite_differences() {
-        fdcheck::check_on_random_grids(|g| Bend::on_grid(g, 1.0e-3, 2.0e-3));
+        fdcheck::check_on_random_grids(|g| Bend::on_grid(g, 1.0e-3, 2.0e-3, &[]));
     }
 
     /// The solver Hessian is PSD everywhere and equals the exact one at the
     /// straight rest state, in both transverse directions.
     #[test]
     fn solver_hessian_is_psd_and_exact_at_rest() {
-        let f = Bend::on_grid(&fdcheck::random_configuration(3, 2, 0.0, 0).0, 1.0, 0.0);
+        let f = Bend::on_grid(
+            &fdcheck::random_configuration(3, 2, 0.0, 0).0,
+            1.0,
+            0.0,
+            &[],
+        );
         let f = AngleForce::<Bend>::new(f.elements[..1].to_vec());
         let straight = [
             Vec3::new(0.0, 0.0, 0.0),

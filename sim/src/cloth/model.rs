@@ -28,14 +28,20 @@ pub struct ForceModel {
 }
 
 impl ForceModel {
-    /// The forces of `grid` made of `material`.
+    /// The forces of `grid` made of `material`, nothing pinned.
     pub fn new(grid: &Grid, material: &MaterialParams) -> Self {
+        Self::with_pins(grid, material, &[])
+    }
+
+    /// The forces of `grid` made of `material` with the particles marked
+    /// in `pinned` held (bending is stiffer at a clamp, see [`Bend`]).
+    pub fn with_pins(grid: &Grid, material: &MaterialParams, pinned: &[bool]) -> Self {
         let stretch = Stretch::on_grid(grid, material.stretch);
         let damping = SpringDamping::new(&stretch.springs, material.damping);
         Self {
             damping,
             stretch,
-            bend: Bend::on_grid(grid, material.bend, material.bend_threshold),
+            bend: Bend::on_grid(grid, material.bend, material.bend_threshold, pinned),
             shear: Shear::on_grid(grid, material.shear, material.shear_threshold),
             drag: AirDrag::new(&grid.area, material.air_drag),
         }

@@ -91,11 +91,50 @@ impl AngleLaw for Shear {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::fdcheck;
+    use crate::cloth::{Force, fdcheck};
 
     #[test]
     fn shear_force_and_jacobian_match_finite_differences() {
         fdcheck::check_on_random_grids(|g| Shear::on_grid(g, 50.0, 0.0));
+    }
+
+    /// The picture-frame (trellis) test: threads keep their lengths and
+    /// the angle between warp and weft closes by `γ`; the continuum energy
+    /// is `1/2 G γ² A` over the rest area `A` (G per rest area, as KES
+    /// reports it). Every corner element sees the same angle, so the
+    /// discrete energy is exact at any resolution, and so is the
+    /// force–angle curve `dE/dγ = G γ A`.
+    #[test]
+    fn trellised_cloth_has_the_continuum_shear_energy_at_any_resolution() {
+        let g = 50.0;
+        for n in [3, 7, 20] {
+            let (grid, _, _) = fdcheck::random_configuration(n, n, 0.0, 0);
+            let shear = Shear::on_grid(&grid, g, 0.0);
+            let area = grid.du * (n - 1) as f64 * grid.dv * (n - 1) as f64;
+            let energy = |gamma: f64| {
+                let weft = crate::math::Vec3::new(gamma.sin(), gamma.cos(), 0.0);
+                let x: Vec<_> = (0..grid.len())
+                    .map(|k| {
+                        let (i, j) = ((k % n) as f64, (k / n) as f64);
+                        crate::math::Vec3::x() * (i * grid.du) + weft * (j * grid.dv)
+                    })
+                    .collect();
+                shear.energy(&x).expect("energy")
+            };
+            for gamma in [0.01, 0.2, 0.6] {
+                let exact = 0.5 * g * gamma * gamma * area;
+                assert!(
+                    (energy(gamma) / exact - 1.0).abs() < 1e-12,
+                    "n {n}, γ {gamma}"
+                );
+                let e = 1e-6;
+                let force = (energy(gamma + e) - energy(gamma - e)) / (2.0 * e);
+                assert!(
+                    (force / (g * gamma * area) - 1.0).abs() < 1e-6,
+                    "n {n}, γ {gamma}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -28,8 +28,8 @@ impl World {
     /// Builds the cloth, its forces, the pins and the obstacles of `scene`.
     pub fn new(scene: &Scene) -> Result<Self, SimError> {
         let grid = Grid::new(&scene.cloth, scene.material.density);
-        let model = ForceModel::new(&grid, &scene.material);
         let pins = Pins::new(&scene.cloth, grid.len());
+        let model = ForceModel::with_pins(&grid, &scene.material, pins.mask());
         // NOTE: the offset follows the finer spacing: a grid resolves the
         // drape along its fine direction, and a strip spaced 1 mm along and
         // 5 mm across must not float 2 mm above its support.
