@@ -111,8 +111,8 @@ async fn every_error_is_in_the_envelope() {
     let cases = [
         ("/v1/jobs?limit=-1".to_owned(), 400, Some("limit")),
         ("/v1/jobs?limit=501".to_owned(), 400, Some("limit")),
-        (format!("/v1/jobs/{id}/frames/abc"), 400, Some("n")),
-        (format!("/v1/jobs/{id}/frames/-1"), 400, Some("n")),
+        (format!("/v1/jobs/{id}/frames/abc"), 404, Some("n")),
+        (format!("/v1/jobs/{id}/frames/-1"), 404, Some("n")),
         (format!("/v1/jobs/{id}/stream?from=-1"), 400, Some("from")),
         (
             format!("/v1/jobs/{id}/result?format=obj&format=glb"),

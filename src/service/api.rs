@@ -149,8 +149,8 @@ pub async fn cancel(
     Ok(Json(Job::from_row(&state.jobs.cancel(&owner, &id).await?)))
 }
 
-/// Frame selector (`n` is read by the handler, so a bad one is answered
-/// in the error envelope naming it).
+/// Frame selector (`n` is read by the handler: a segment that is no frame
+/// index names no frame, `404` in the error envelope naming `n`).
 #[derive(Debug, Deserialize)]
 pub struct FramePath {
     id: String,
@@ -179,9 +179,8 @@ pub struct FrameJson {
     responses(
         (status = 200, description = "The frame: JSON, or the binary frame with `Accept: application/octet-stream`",
             content((FrameJson = "application/json"), (FileBytes = "application/octet-stream"))),
-        (status = 400, description = "`n` is not a frame index", body = ErrorResponse),
         (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
-        (status = 404, description = "No such job, or the frame is not stored yet", body = ErrorResponse),
+        (status = 404, description = "No such job, no such frame (`n` is not a frame index), or the frame is not stored yet", body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -192,8 +191,11 @@ pub async fn frame(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let n: u64 = p.n.parse().map_err(|_| {
-        ApiError::bad_request(format!("n: {:?} is not a frame index (0, 1, 2, ...)", p.n))
-            .with_path("n")
+        ApiError::not_found(&format!(
+            "frame {:?}: frames are numbered 0, 1, 2, ...",
+            p.n
+        ))
+        .with_path("n")
     })?;
     let f = state.jobs.frame(&owner, &p.id, n).await?;
     let binary = headers

@@ -22,7 +22,8 @@
 //! MiB: 3.1-3.2 kB per particle, linear; the solver allocates its world and
 //! workspace once, sized by `N` and `T`, and nothing grows per step but
 //! the contact list, itself at most `N`), plus what the service encodes
-//! per frame (the checkpoint's JSON), and of a 10x10 cloth over meshes of
+//! per frame (the checkpoint's JSON: `drapery serve` running a 1000x250
+//! cloth peaked at 876 MiB, 3.7 kB per particle), and of a 10x10 cloth over meshes of
 //! 20,000 and 180,000 triangles (20.1 and 127.7 MiB: 670 B per triangle
 //! with the spec's own text); the disk terms are the byte counts of the
 //! rows `drapery serve` stored for the 50² drape over 1 s (hello 351 kB,
@@ -47,8 +48,10 @@ use drapery_sim::spec::{Scene, TimeStepping};
 /// Resident memory of a job beyond what `N` and `T` explain, bytes.
 pub const MEMORY_BASE: f64 = 8.0e6;
 /// Resident memory per cloth particle, bytes: 3.2 kB measured for the
-/// solver, and the checkpoint's JSON (0.25 kB) the worker encodes.
-pub const MEMORY_PER_PARTICLE: f64 = 3500.0;
+/// solver alone; the service running a 1000x250 cloth peaked at 3.7 kB
+/// per particle (876 MiB: the solver, the hello and the checkpoint's JSON
+/// it encodes).
+pub const MEMORY_PER_PARTICLE: f64 = 3700.0;
 /// Resident memory per obstacle mesh triangle (mesh, normals, BVH, the
 /// spec's text), bytes.
 pub const MEMORY_PER_TRIANGLE: f64 = 700.0;

@@ -252,6 +252,74 @@ mod tests {
         );
     }
 
+    /// The drift the issue found, each now stated by the document: both
+    /// encodings of a frame, the downloads' real types, `limit` 1..=500,
+    /// `format` an enum, fixed array lengths, `415`/`503` on submission, and
+    /// security only on a server with keys.
+    #[test]
+    fn the_openapi_document_matches_the_server() {
+        let doc = |keys| {
+            serde_json::to_value(document(Profile {
+                keys,
+                max_duration: 600.0,
+            }))
+            .expect("JSON")
+        };
+        let open = doc(false);
+        let paths = &open["paths"];
+        let frame = &paths["/v1/jobs/{id}/frames/{n}"]["get"]["responses"]["200"]["content"];
+        assert!(
+            frame.get("application/json").is_some()
+                && frame.get("application/octet-stream").is_some()
+        );
+        let result = &paths["/v1/jobs/{id}/result"]["get"];
+        for t in [
+            "application/zip",
+            "application/octet-stream",
+            "model/gltf-binary",
+        ] {
+            assert!(
+                result["responses"]["200"]["content"].get(t).is_some(),
+                "{t}"
+            );
+        }
+        let params = |op: &serde_json::Value, name: &str| {
+            op["parameters"]
+                .as_array()
+                .and_then(|ps| ps.iter().find(|p| p["name"] == name).cloned())
+                .unwrap_or_default()
+        };
+        let limit = params(&paths["/v1/jobs"]["get"], "limit");
+        assert_eq!(
+            (
+                limit["schema"]["minimum"].as_f64(),
+                limit["schema"]["maximum"].as_f64()
+            ),
+            (Some(1.0), Some(500.0))
+        );
+        let format = params(result, "format");
+        assert!(format.to_string().contains("\"glb\""), "{format}");
+        let submit = &paths["/v1/jobs"]["post"]["responses"];
+        for status in ["201", "400", "408", "413", "415", "422", "429", "503"] {
+            assert!(submit.get(status).is_some(), "{status}");
+        }
+        assert!(
+            open.to_string().find("\"security\"").is_none(),
+            "no keys: no security"
+        );
+        let grid = &open["components"]["schemas"]["ClothSpec"]["properties"]["grid"];
+        assert_eq!(
+            (grid["minItems"].as_u64(), grid["maxItems"].as_u64()),
+            (Some(2), Some(2))
+        );
+        let keyed = doc(true);
+        assert_eq!(
+            keyed["paths"]["/v1/jobs"]["get"]["security"],
+            serde_json::json!([{"api_key": []}])
+        );
+        assert!(keyed["paths"]["/healthz"]["get"].get("security").is_none());
+    }
+
     /// The schema accepts what the spec parser accepts: every canonical
     /// scene and the project's examples validate against it.
     #[test]
