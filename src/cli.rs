@@ -141,9 +141,95 @@ pub struct ServeArgs {
     #[arg(long, env = "DRAPERY_CHECKPOINT_SECONDS", default_value_t = 2.0)]
     pub checkpoint_seconds: f64,
     /// On SIGTERM/SIGINT, how long running jobs get to reach a frame and
-    /// checkpoint before the server exits anyway, seconds.
+    /// checkpoint, and open connections to finish their requests, before
+    /// the server exits anyway, seconds.
     #[arg(long, env = "DRAPERY_SHUTDOWN_GRACE", default_value_t = 20.0)]
     pub shutdown_grace: f64,
+    /// Most open client connections; more wait in the listen backlog.
+    #[arg(long, env = "DRAPERY_MAX_CONNECTIONS", default_value_t = 512)]
+    pub max_connections: usize,
+    /// Seconds a request's head (request line and headers) may take from
+    /// its first byte; the connection is closed after.
+    #[arg(long, env = "DRAPERY_HEADER_TIMEOUT", default_value_t = 10.0)]
+    pub header_timeout: f64,
+    /// Seconds a request's body may take to arrive whole; `408` after.
+    #[arg(long, env = "DRAPERY_BODY_TIMEOUT", default_value_t = 60.0)]
+    pub body_timeout: f64,
+    /// Seconds a kept-alive connection may stay silent between requests
+    /// before it is closed.
+    #[arg(long, env = "DRAPERY_IDLE_TIMEOUT", default_value_t = 60.0)]
+    pub idle_timeout: f64,
+    /// Per-job memory budget (`2GiB`, `512MiB`, bytes): a spec whose
+    /// estimated solver memory is larger gets `422 over_budget`.
+    #[arg(long, env = "DRAPERY_JOB_MEMORY_BUDGET", default_value = "2GiB", value_parser = parse_bytes)]
+    pub job_memory_budget: u64,
+    /// Per-job disk budget: a spec whose estimated stored frames,
+    /// checkpoint and hello are larger gets `422 over_budget`, and a job
+    /// that stores more fails with `limit_exceeded`.
+    #[arg(long, env = "DRAPERY_JOB_DISK_BUDGET", default_value = "2GiB", value_parser = parse_bytes)]
+    pub job_disk_budget: u64,
+    /// Per-job estimated wall-time budget, seconds: a spec estimated to run
+    /// longer gets `422 over_budget`. Generous on purpose (three times the
+    /// default --max-wall-seconds): the estimate is rough, and
+    /// --max-wall-seconds stays the hard bound.
+    #[arg(long, env = "DRAPERY_JOB_TIME_BUDGET", default_value_t = 10_800.0)]
+    pub job_time_budget: f64,
+    /// Delete ended jobs (their frames and checkpoints too) older than an
+    /// age (`30d`, `12h`) or beyond a count of the newest (`1000`); both
+    /// may be given (`30d,1000`). Default: keep every job.
+    #[arg(long, env = "DRAPERY_RETENTION", value_delimiter = ',', value_parser = parse_retention)]
+    pub retention: Vec<Retention>,
+}
+
+/// A rule for deleting ended jobs (`--retention`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Retention {
+    /// Ended longer ago than this.
+    Age(std::time::Duration),
+    /// Beyond this many of the most recently ended.
+    Count(usize),
+}
+
+/// `--retention`: a count of jobs (`1000`) or an age (`30d`, `12h`, `90s`).
+fn parse_retention(s: &str) -> Result<Retention, String> {
+    let s = s.trim();
+    if let Ok(n) = s.parse::<usize>() {
+        return Ok(Retention::Count(n));
+    }
+    humantime::parse_duration(s)
+        .map(Retention::Age)
+        .map_err(|e| format!("{s}: neither a count of jobs nor an age like 30d or 12h ({e})"))
+}
+
+/// A size in bytes: a whole number, or a number with a unit (`KB`, `MB`,
+/// `GB`, `TB` are powers of 1000; `KiB`, `MiB`, `GiB`, `TiB` of 1024).
+pub fn parse_bytes(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let number: f64 = number
+        .parse()
+        .map_err(|_| format!("{s}: expected a size such as 2GiB, 512MB or 1000000"))?;
+    let scale: f64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "kb" => 1e3,
+        "mb" => 1e6,
+        "gb" => 1e9,
+        "tb" => 1e12,
+        "kib" => 1024.0,
+        "mib" => 1024.0 * 1024.0,
+        "gib" => 1024.0 * 1024.0 * 1024.0,
+        "tib" => 1024.0 * 1024.0 * 1024.0 * 1024.0,
+        other => return Err(format!("{s}: unknown unit {other:?}")),
+    };
+    let bytes = number * scale;
+    if bytes.is_finite() && bytes >= 0.0 && bytes < u64::MAX as f64 {
+        Ok(bytes.round() as u64)
+    } else {
+        Err(format!("{s}: out of range"))
+    }
 }
 
 /// `drapery bench ...`.
@@ -261,7 +347,27 @@ fn parse_seconds(s: &str) -> Result<f64, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_seconds;
+    use super::{Retention, parse_bytes, parse_retention, parse_seconds};
+
+    #[test]
+    fn sizes_parse_with_decimal_and_binary_units() {
+        assert_eq!(parse_bytes("1000"), Ok(1000));
+        assert_eq!(parse_bytes("2GiB"), Ok(2 << 30));
+        assert_eq!(parse_bytes("1.5 MB"), Ok(1_500_000));
+        assert_eq!(parse_bytes("512mib"), Ok(512 << 20));
+        assert!(parse_bytes("lots").is_err());
+        assert!(parse_bytes("3 parsecs").is_err());
+    }
+
+    #[test]
+    fn retention_is_a_count_or_an_age() {
+        assert_eq!(parse_retention("1000"), Ok(Retention::Count(1000)));
+        assert_eq!(
+            parse_retention("12h"),
+            Ok(Retention::Age(std::time::Duration::from_secs(12 * 3600)))
+        );
+        assert!(parse_retention("soon").is_err());
+    }
 
     #[test]
     fn seconds_parse_as_decimals_or_fractions() {

@@ -1,10 +1,22 @@
 //! Reading job specs from JSON with errors that name the field.
 //!
-//! Parse errors (malformed JSON, wrong types, unknown fields) come from
-//! serde with the path tracked by `serde_path_to_error`; rule violations
-//! come from [`Spec::validate`]. Both end as [`SpecErrors`].
+//! Two passes. The first reads the text as JSON and nothing more
+//! (`IgnoredAny`, no allocation per value) up to its very end: a syntax
+//! error, or anything after the document (`{...}xx`), is
+//! [`SpecLoadError::Malformed`]. The second reads the now well-formed JSON
+//! into a [`Spec`] through [`WholeNumbers`] (whole floats fill integer
+//! fields; an array longer than its fixed length is a length error), with
+//! the path tracked by `serde_path_to_error`: every error there — wrong
+//! type, unknown field, wrong length, number out of range — is the
+//! document's shape, [`SpecLoadError::Invalid`] at the field's path. Rule
+//! violations come from [`Spec::validate`]. Both end as [`SpecErrors`].
+
+mod whole_numbers;
 
 use drapery_sim::spec::{Limits, Scene, Spec, SpecError, SpecErrors};
+use serde::Deserialize;
+
+use whole_numbers::WholeNumbers;
 
 /// Why a spec was refused.
 #[derive(Debug, thiserror::Error)]
@@ -33,21 +45,23 @@ impl SpecLoadError {
 
 /// Parses `text` into a [`Spec`] (no rule checks yet).
 pub fn parse(text: &str) -> Result<Spec, SpecLoadError> {
+    check_syntax(text)?;
     let de = &mut serde_json::Deserializer::from_str(text);
-    match serde_path_to_error::deserialize::<_, Spec>(de) {
-        Ok(spec) => Ok(spec),
-        Err(e) => {
-            let path = e.path().to_string();
-            let inner = e.into_inner();
-            if inner.is_syntax() || inner.is_eof() || inner.is_io() {
-                return Err(SpecLoadError::Malformed(inner.to_string()));
-            }
-            Err(SpecLoadError::Invalid(SpecErrors(vec![SpecError {
-                path: if path == "." { String::new() } else { path },
-                message: inner.to_string(),
-            }])))
-        }
-    }
+    serde_path_to_error::deserialize::<_, Spec>(WholeNumbers(de)).map_err(|e| {
+        let path = e.path().to_string();
+        SpecLoadError::Invalid(SpecErrors(vec![SpecError {
+            path: if path == "." { String::new() } else { path },
+            message: e.into_inner().to_string(),
+        }]))
+    })
+}
+
+/// `text` is one JSON document and nothing after it but white space.
+fn check_syntax(text: &str) -> Result<(), SpecLoadError> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    serde::de::IgnoredAny::deserialize(&mut de)
+        .and_then(|_| de.end())
+        .map_err(|e| SpecLoadError::Malformed(e.to_string()))
 }
 
 /// Parses and validates `text` under `limits`.
@@ -130,6 +144,35 @@ mod tests {
         );
         let e = errors(&OK.replace("\"fps\": 10", "\"fps\": 10, \"solver\": {\"dt\": 1e-8}"));
         assert!(e.iter().any(|e| e.path == "solver.dt"), "{e:?}");
+    }
+
+    #[test]
+    fn trailing_data_after_the_json_is_refused() {
+        let e = load(&format!("{OK}xx"), &Limits::default()).expect_err("trailing data");
+        assert!(matches!(e, SpecLoadError::Malformed(_)), "{e:?}");
+        assert!(e.to_string().contains("trailing characters"), "{e}");
+        load(&format!("{OK} \n"), &Limits::default()).expect("white space may follow");
+    }
+
+    #[test]
+    fn a_grid_of_three_is_a_shape_error_at_cloth_grid() {
+        let e = load(&OK.replace("[3, 3]", "[20, 20, 20]"), &Limits::default())
+            .expect_err("three numbers");
+        assert!(matches!(e, SpecLoadError::Invalid(_)), "{e:?}");
+        let e = e.errors();
+        assert_eq!(e[0].path, "cloth.grid", "{e:?}");
+        assert!(e[0].message.contains("invalid length 3"), "{e:?}");
+        let e = errors(&OK.replace("[3, 3]", "[3, \"3\"]"));
+        assert_eq!(e[0].path, "cloth.grid[1]", "{e:?}");
+    }
+
+    #[test]
+    fn integral_floats_are_accepted_where_an_integer_is_meant() {
+        let scene =
+            load(&OK.replace("[3, 3]", "[976.0, 3.0]"), &Limits::default()).expect("976.0 is 976");
+        assert_eq!((scene.cloth.nu, scene.cloth.nv), (976, 3));
+        let e = errors(&OK.replace("[3, 3]", "[976.5, 3]"));
+        assert_eq!(e[0].path, "cloth.grid[0]", "{e:?}");
     }
 
     #[test]

@@ -5,16 +5,14 @@
 //! [`Jobs`]: super::jobs::Jobs
 
 use axum::Json;
-use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
-use axum::extract::{Extension, Path, Query, State};
+use axum::extract::{Extension, Path, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 use utoipa::{IntoParams, ToSchema};
 
 use super::error::{ApiError, ErrorResponse};
-use super::error_code::ErrorCode;
+use super::extract::{JsonBody, Query};
 use super::frame_bytes::{binary_frame, decode_positions};
 use super::jobs::ListFilter;
 use super::keys::Owner;
@@ -22,29 +20,48 @@ use super::results::Format;
 use super::state::AppState;
 use super::view::{Job, JobList};
 
+/// A file's bytes: a download, or a binary frame.
+#[derive(Debug)]
+pub struct FileBytes;
+
+impl utoipa::PartialSchema for FileBytes {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::schema::{KnownFormat, ObjectBuilder, SchemaFormat, Type};
+        ObjectBuilder::new()
+            .schema_type(Type::String)
+            .format(Some(SchemaFormat::KnownFormat(KnownFormat::Binary)))
+            .into()
+    }
+}
+
+impl ToSchema for FileBytes {}
+
 /// Submit a job spec.
 ///
-/// The spec is parsed and validated against the server's limits; a valid
-/// one is stored and queued.
+/// The spec is parsed and validated against the server's limits, and its
+/// estimated memory, disk and wall time against the per-job budgets; a
+/// valid one within them is stored and queued.
 #[utoipa::path(
     post, path = "/v1/jobs", tag = "jobs",
-    request_body(content = drapery_sim::spec::Spec, description = "A job spec (api/job.schema.json)", content_type = "application/json"),
+    request_body(content = drapery_sim::spec::Spec, description = "A job spec (api/job.schema.json), as `Content-Type: application/json`", content_type = "application/json"),
     responses(
         (status = 201, description = "Queued", body = Job, headers(("Location" = String, description = "The job's URL"))),
-        (status = 400, description = "Malformed JSON", body = ErrorResponse),
+        (status = 400, description = "Malformed JSON (`malformed_json`), or trailing data after it", body = ErrorResponse),
         (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
+        (status = 408, description = "The body did not arrive within --body-timeout", body = ErrorResponse),
         (status = 413, description = "Body larger than the server's limit", body = ErrorResponse),
-        (status = 422, description = "Invalid spec; `path` names the field", body = ErrorResponse),
-        (status = 429, description = "Queue full; see Retry-After", body = ErrorResponse),
+        (status = 415, description = "The body is not `application/json`", body = ErrorResponse),
+        (status = 422, description = "Invalid spec (`invalid_spec`; `path` names the field), or beyond a per-job budget (`over_budget`; the message names the budget and the estimate)", body = ErrorResponse),
+        (status = 429, description = "Queue full", body = ErrorResponse, headers(("Retry-After" = u32, description = "Seconds to wait"))),
+        (status = 503, description = "The server is shutting down", body = ErrorResponse, headers(("Retry-After" = u32, description = "Seconds to wait"))),
     ),
     security(("api_key" = []))
 )]
 pub async fn submit(
     State(state): State<AppState>,
     Extension(owner): Extension<Owner>,
-    body: Result<Bytes, BytesRejection>,
+    JsonBody(body): JsonBody,
 ) -> Result<Response, ApiError> {
-    let body = body.map_err(|e| body_error(&e, state.config.max_body_bytes))?;
     let job = Job::from_row(&state.jobs.submit(&owner, body).await?);
     let mut headers = HeaderMap::new();
     if let Ok(v) = HeaderValue::from_str(&job.links.self_) {
@@ -53,30 +70,18 @@ pub async fn submit(
     Ok((StatusCode::CREATED, headers, Json(job)).into_response())
 }
 
-/// A body that could not be read: too large, or broken.
-fn body_error(e: &BytesRejection, limit: usize) -> ApiError {
-    match e {
-        BytesRejection::FailedToBufferBody(_) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
-            ApiError::new(
-                ErrorCode::PayloadTooLarge,
-                format!(
-                    "the body is larger than this server's limit of {limit} bytes (--max-body-bytes)"
-                ),
-            )
-        }
-        other => ApiError::bad_request(other.body_text()),
-    }
-}
-
 /// Filters and paging of the job list.
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
 pub struct ListQuery {
     /// Only jobs in this status.
+    #[param(inline, value_type = Option<super::job::Status>)]
     status: Option<String>,
     /// Jobs per page, 1..=500 (default 50).
+    #[param(minimum = 1, maximum = 500)]
     limit: Option<usize>,
     /// `next_cursor` of the previous page.
+    #[param(pattern = "^[0-9]{1,18}$")]
     cursor: Option<String>,
 }
 
@@ -84,9 +89,9 @@ pub struct ListQuery {
 #[utoipa::path(
     get, path = "/v1/jobs", tag = "jobs", params(ListQuery),
     responses(
-        (status = 200, body = JobList),
-        (status = 400, description = "Bad filter or cursor", body = ErrorResponse),
-        (status = 401, body = ErrorResponse),
+        (status = 200, description = "A page of jobs", body = JobList),
+        (status = 400, description = "Bad filter or cursor; `path` names the parameter", body = ErrorResponse),
+        (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -104,7 +109,11 @@ pub async fn list(
 #[utoipa::path(
     get, path = "/v1/jobs/{id}", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
-    responses((status = 200, body = Job), (status = 404, body = ErrorResponse), (status = 401, body = ErrorResponse)),
+    responses(
+        (status = 200, description = "The job", body = Job),
+        (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
+        (status = 404, description = "No such job", body = ErrorResponse),
+    ),
     security(("api_key" = []))
 )]
 pub async fn get(
@@ -115,18 +124,20 @@ pub async fn get(
     Ok(Json(Job::from_row(&state.jobs.get(&owner, &id).await?)))
 }
 
-/// Cancel a queued or running job.
+/// Cancel a queued or running job; delete an ended one.
 ///
-/// A running job stops at its next solver step; the response comes when it
-/// has (or after 5 s, still `running`). Frames stored so far stay.
+/// A queued job is cancelled at once. A running job stops at its next
+/// solver step; the response comes when it has (or after 5 s, still
+/// `running`); frames stored so far stay. An ended job (succeeded, failed
+/// or cancelled) is deleted with its frames and checkpoint, and the answer
+/// is the job as it was; it is `404` from then on.
 #[utoipa::path(
     delete, path = "/v1/jobs/{id}", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
     responses(
-        (status = 200, description = "Cancelled (or already)", body = Job),
-        (status = 404, body = ErrorResponse),
-        (status = 409, description = "The job already succeeded or failed", body = ErrorResponse),
-        (status = 401, body = ErrorResponse),
+        (status = 200, description = "Cancelled, or deleted (the job as it was)", body = Job),
+        (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
+        (status = 404, description = "No such job", body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -138,11 +149,12 @@ pub async fn cancel(
     Ok(Json(Job::from_row(&state.jobs.cancel(&owner, &id).await?)))
 }
 
-/// Frame selector.
+/// Frame selector (`n` is read by the handler: a segment that is no frame
+/// index names no frame, `404` in the error envelope naming `n`).
 #[derive(Debug, Deserialize)]
 pub struct FramePath {
     id: String,
-    n: u64,
+    n: String,
 }
 
 /// One frame as JSON.
@@ -163,12 +175,12 @@ pub struct FrameJson {
 /// u32, time f64, little-endian; then f32 x, y, z per particle).
 #[utoipa::path(
     get, path = "/v1/jobs/{id}/frames/{n}", tag = "frames",
-    params(("id" = String, Path, description = "Job id"), ("n" = u64, Path, description = "Frame index, from 0")),
+    params(("id" = String, Path, description = "Job id"), ("n" = u64, Path, minimum = 0, maximum = 9_007_199_254_740_991_u64, description = "Frame index, from 0")),
     responses(
-        (status = 200, body = FrameJson, content_type = "application/json"),
-        (status = 200, description = "Binary frame", content_type = "application/octet-stream", body = Vec<u8>),
-        (status = 404, description = "No such job, or the frame is not stored yet", body = ErrorResponse),
-        (status = 401, body = ErrorResponse),
+        (status = 200, description = "The frame: JSON, or the binary frame with `Accept: application/octet-stream`",
+            content((FrameJson = "application/json"), (FileBytes = "application/octet-stream"))),
+        (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
+        (status = 404, description = "No such job, no such frame (`n` is not a frame index), or the frame is not stored yet", body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -178,7 +190,14 @@ pub async fn frame(
     Path(p): Path<FramePath>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let f = state.jobs.frame(&owner, &p.id, p.n).await?;
+    let n: u64 = p.n.parse().map_err(|_| {
+        ApiError::not_found(&format!(
+            "frame {:?}: frames are numbered 0, 1, 2, ...",
+            p.n
+        ))
+        .with_path("n")
+    })?;
+    let f = state.jobs.frame(&owner, &p.id, n).await?;
     let binary = headers
         .get(header::ACCEPT)
         .and_then(|v| v.to_str().ok())
@@ -202,7 +221,11 @@ pub async fn frame(
 pub struct ResultQuery {
     /// `obj` (zip of one OBJ per frame), `pc2` (point cache) or `glb`
     /// (binary glTF with the animation); default `obj`.
-    format: Option<String>,
+    #[param(inline)]
+    format: Option<Format>,
+    /// The API key, for a download link (a browser sets no header on it).
+    #[allow(dead_code)]
+    access_token: Option<String>,
 }
 
 /// The whole animation as a download, once the job has ended.
@@ -210,11 +233,13 @@ pub struct ResultQuery {
     get, path = "/v1/jobs/{id}/result", tag = "frames",
     params(("id" = String, Path, description = "Job id"), ResultQuery),
     responses(
-        (status = 200, description = "zip, PC2 or GLB file", content_type = "application/octet-stream", body = Vec<u8>),
-        (status = 400, description = "Unknown format", body = ErrorResponse),
-        (status = 404, body = ErrorResponse),
+        (status = 200, description = "A zip of OBJ files (`obj`), a PC2 point cache (`pc2`) or a binary glTF (`glb`)",
+            content((FileBytes = "application/zip"), (FileBytes = "application/octet-stream"), (FileBytes = "model/gltf-binary")),
+            headers(("Content-Disposition" = String, description = "attachment; the file's name"))),
+        (status = 400, description = "Unknown or repeated `format`", body = ErrorResponse),
+        (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
+        (status = 404, description = "No such job", body = ErrorResponse),
         (status = 409, description = "The job has not ended, or stored no frame", body = ErrorResponse),
-        (status = 401, body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -224,11 +249,7 @@ pub async fn result(
     Path(id): Path<String>,
     Query(q): Query<ResultQuery>,
 ) -> Result<Response, ApiError> {
-    let name = q.format.as_deref().unwrap_or("obj");
-    let format = Format::parse(name).ok_or_else(|| {
-        ApiError::bad_request(format!("unknown format {name:?}; expected obj, pc2 or glb"))
-            .with_path("format")
-    })?;
+    let format = q.format.unwrap_or(Format::Obj);
     let (row, bytes) = state.jobs.download(&owner, &id, format).await?;
     let disposition = format!("attachment; filename=\"{}.{}\"", row.id, format.extension());
     Ok((

@@ -1,10 +1,13 @@
 //! The service's settings, from `drapery serve`'s flags (or their
 //! environment variables), checked once at start.
 
+use std::time::Duration;
+
 use drapery_sim::spec::Limits;
 
+use super::cost::Budgets;
 use super::keys::{KeyError, Keys};
-use crate::cli::ServeArgs;
+use crate::cli::{Retention, ServeArgs};
 
 /// Settings from `drapery serve`'s flags.
 #[derive(Debug, Clone)]
@@ -19,6 +22,18 @@ pub struct Config {
     pub cors_origins: Vec<String>,
     pub checkpoint_seconds: f64,
     pub shutdown_grace: f64,
+    /// Open connections at most.
+    pub max_connections: usize,
+    /// A request head's time from its first byte.
+    pub header_timeout: Duration,
+    /// A request body's time to arrive whole.
+    pub body_timeout: Duration,
+    /// A kept-alive connection's silence between requests.
+    pub idle_timeout: Duration,
+    /// Per-job memory, disk and estimated time.
+    pub budgets: Budgets,
+    /// Which ended jobs are deleted.
+    pub retention: Vec<Retention>,
 }
 
 /// Flags that cannot configure a service.
@@ -30,6 +45,12 @@ pub enum ConfigError {
     NoQueue,
     #[error("--max-wall-seconds and --max-duration must be positive")]
     NonPositiveLimit,
+    #[error("--max-connections must be at least 1")]
+    NoConnections,
+    #[error("{0} must be a positive number of seconds")]
+    Timeout(&'static str),
+    #[error("--job-memory-budget, --job-disk-budget and --job-time-budget must be positive")]
+    NonPositiveBudget,
     #[error(transparent)]
     Key(#[from] KeyError),
 }
@@ -49,6 +70,27 @@ impl Config {
         if !(a.max_wall_seconds > 0.0 && a.max_duration > 0.0) {
             return Err(ConfigError::NonPositiveLimit);
         }
+        if a.max_connections < 1 {
+            return Err(ConfigError::NoConnections);
+        }
+        let seconds = |flag: &'static str, s: f64| {
+            Duration::try_from_secs_f64(s)
+                .ok()
+                .filter(|d| !d.is_zero())
+                .ok_or(ConfigError::Timeout(flag))
+        };
+        let budgets = Budgets {
+            memory_bytes: a.job_memory_budget,
+            disk_bytes: a.job_disk_budget,
+            seconds: a.job_time_budget,
+        };
+        if budgets.memory_bytes == 0
+            || budgets.disk_bytes == 0
+            || budgets.seconds.is_nan()
+            || budgets.seconds <= 0.0
+        {
+            return Err(ConfigError::NonPositiveBudget);
+        }
         let core = Limits::default();
         Ok(Self {
             workers,
@@ -66,6 +108,12 @@ impl Config {
             cors_origins: a.cors_origins.clone(),
             checkpoint_seconds: a.checkpoint_seconds,
             shutdown_grace: a.shutdown_grace,
+            max_connections: a.max_connections,
+            header_timeout: seconds("--header-timeout", a.header_timeout)?,
+            body_timeout: seconds("--body-timeout", a.body_timeout)?,
+            idle_timeout: seconds("--idle-timeout", a.idle_timeout)?,
+            budgets,
+            retention: a.retention.clone(),
         })
     }
 }

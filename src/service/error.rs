@@ -98,10 +98,14 @@ impl ApiError {
 fn status_of(code: ErrorCode) -> StatusCode {
     match code {
         ErrorCode::MalformedJson | ErrorCode::BadRequest => StatusCode::BAD_REQUEST,
-        ErrorCode::InvalidSpec => StatusCode::UNPROCESSABLE_ENTITY,
+        ErrorCode::InvalidSpec | ErrorCode::OverBudget => StatusCode::UNPROCESSABLE_ENTITY,
         ErrorCode::NotFound => StatusCode::NOT_FOUND,
         ErrorCode::Unauthorized => StatusCode::UNAUTHORIZED,
+        ErrorCode::Forbidden => StatusCode::FORBIDDEN,
+        ErrorCode::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
+        ErrorCode::RequestTimeout => StatusCode::REQUEST_TIMEOUT,
         ErrorCode::PayloadTooLarge => StatusCode::PAYLOAD_TOO_LARGE,
+        ErrorCode::UnsupportedMediaType => StatusCode::UNSUPPORTED_MEDIA_TYPE,
         ErrorCode::QueueFull => StatusCode::TOO_MANY_REQUESTS,
         ErrorCode::Conflict => StatusCode::CONFLICT,
         ErrorCode::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
@@ -110,6 +114,25 @@ fn status_of(code: ErrorCode) -> StatusCode {
         ErrorCode::Internal | ErrorCode::NonFinite | ErrorCode::LimitExceeded => {
             StatusCode::INTERNAL_SERVER_ERROR
         }
+    }
+}
+
+/// The code of an error answer that another layer made (a `404` of no
+/// route, a `405`): the one its status stands for.
+pub fn code_for_status(status: StatusCode) -> ErrorCode {
+    match status {
+        StatusCode::NOT_FOUND => ErrorCode::NotFound,
+        StatusCode::METHOD_NOT_ALLOWED => ErrorCode::MethodNotAllowed,
+        StatusCode::UNAUTHORIZED => ErrorCode::Unauthorized,
+        StatusCode::FORBIDDEN => ErrorCode::Forbidden,
+        StatusCode::REQUEST_TIMEOUT => ErrorCode::RequestTimeout,
+        StatusCode::PAYLOAD_TOO_LARGE => ErrorCode::PayloadTooLarge,
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => ErrorCode::UnsupportedMediaType,
+        StatusCode::TOO_MANY_REQUESTS => ErrorCode::QueueFull,
+        StatusCode::SERVICE_UNAVAILABLE => ErrorCode::ShuttingDown,
+        s if s.is_server_error() => ErrorCode::Internal,
+        // Any other client error: the request as sent cannot be served.
+        _ => ErrorCode::BadRequest,
     }
 }
 
@@ -131,6 +154,17 @@ impl From<SubmitError> for ApiError {
             SubmitError::Spec(e) => spec_error(e),
             SubmitError::Undrawable(e) => {
                 Self::new(ErrorCode::InvalidSpec, message).with_path(e.path)
+            }
+            SubmitError::OverBudget(over) => {
+                let mut err = Self::new(ErrorCode::OverBudget, message);
+                err.body.details = over
+                    .iter()
+                    .map(|o| ErrorDetail {
+                        path: String::new(),
+                        message: o.to_string(),
+                    })
+                    .collect();
+                err
             }
             SubmitError::QueueFull { .. } => Self::new(ErrorCode::QueueFull, message).retry_later(),
             SubmitError::ShuttingDown => Self::new(ErrorCode::ShuttingDown, message).retry_later(),

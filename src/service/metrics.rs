@@ -29,6 +29,10 @@ pub struct Metrics {
     pub submitted: Counter,
     /// Submissions refused because the queue was full.
     pub rejected_queue_full: Counter,
+    /// Submissions refused as beyond a per-job budget.
+    pub rejected_over_budget: Counter,
+    /// Ended jobs deleted (by their owner or by `--retention`).
+    pub deleted: Counter,
     /// Frames stored.
     pub frames: Counter,
     /// Wall time of one solver step (a frame's step time over its steps).
@@ -43,6 +47,8 @@ impl Default for Metrics {
         let workers_busy = Gauge::default();
         let submitted = Counter::default();
         let rejected_queue_full = Counter::default();
+        let rejected_over_budget = Counter::default();
+        let deleted = Counter::default();
         let frames = Counter::default();
         // 10 µs .. ~40 s: a 10x10 cloth's step up to a huge one's.
         let step_seconds = Histogram::new(exponential_buckets(1e-5, 2.5, 17));
@@ -63,6 +69,12 @@ impl Default for Metrics {
             "Submissions refused with 429",
             rejected_queue_full.clone(),
         );
+        registry.register(
+            "jobs_rejected_over_budget",
+            "Submissions refused with 422 over_budget",
+            rejected_over_budget.clone(),
+        );
+        registry.register("jobs_deleted", "Ended jobs deleted", deleted.clone());
         registry.register("frames", "Frames stored", frames.clone());
         registry.register(
             "step_seconds",
@@ -76,6 +88,8 @@ impl Default for Metrics {
             workers_busy,
             submitted,
             rejected_queue_full,
+            rejected_over_budget,
+            deleted,
             frames,
             step_seconds,
         }

@@ -15,9 +15,13 @@
 mod api;
 mod auth;
 mod config;
+mod connections;
+mod cost;
 mod error;
 mod error_code;
+mod extract;
 mod frame_bytes;
+mod guard;
 mod job;
 mod jobs;
 mod keys;

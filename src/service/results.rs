@@ -12,7 +12,8 @@ use super::store::{JobRow, Store, StoreError};
 use crate::specfile::SpecLoadError;
 
 /// Download formats.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "lowercase")]
 pub enum Format {
     /// A zip of `frames/frame_NNNNN.obj`.
     Obj,
@@ -24,6 +25,7 @@ pub enum Format {
 
 impl Format {
     /// The format named `obj`, `pc2` or `glb`.
+    #[cfg(test)]
     pub fn parse(name: &str) -> Option<Self> {
         match name {
             "obj" => Some(Format::Obj),

@@ -2,11 +2,14 @@
 //! [`run`], which serves them on a listener with the workers running until
 //! a shutdown future completes; and [`serve`], `drapery serve` itself.
 //!
-//! Shutdown: when the future completes, no new request is accepted,
-//! in-flight requests finish, streams are told `interrupted`, running jobs
-//! stop at their next frame with a checkpoint (or, past the grace period,
-//! at their next step) and are queued again, and every worker thread is
-//! joined before `run` returns.
+//! Shutdown: when the future completes, no new connection is accepted,
+//! in-flight requests finish (connections still open when the grace period
+//! ends are dropped, whatever their clients hold), streams are told
+//! `interrupted`, running jobs stop at their next frame with a checkpoint
+//! (or, past the grace period, at their next step) and are queued again,
+//! and every worker thread is joined before `run` returns. Connections
+//! and jobs wind down at the same time, so `run` returns about one grace
+//! period after the signal at most.
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -18,21 +21,26 @@ use std::time::{Duration, Instant};
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
 use axum::http::{HeaderValue, Method, header};
+use axum::middleware::from_fn_with_state;
 use axum::routing::get;
 use tokio::net::TcpListener;
 use tower_http::cors::{AllowOrigin, Any, CorsLayer};
 use tower_http::trace::TraceLayer;
 use tracing::{info, warn};
 
+use super::auth::Gate;
 use super::config::{Config, ConfigError};
+use super::connections::{self, ConnectionLimits};
 use super::jobs::Jobs;
 use super::state::AppState;
 use super::store::{Store, StoreError};
-use super::{api, auth, openapi, ops, stream, viewer, worker};
+use super::{api, auth, guard, openapi, ops, stream, viewer, worker};
 use crate::cli::ServeArgs;
 
 /// How often running jobs are checked against their wall-time limit.
 const DEADLINE_CHECK: Duration = Duration::from_millis(250);
+/// How often `--retention` deletes the ended jobs it no longer keeps.
+const RETENTION_CHECK: Duration = Duration::from_secs(2);
 
 /// Why the service could not start, or stopped with an error.
 #[derive(Debug, thiserror::Error)]
@@ -65,23 +73,33 @@ pub enum ServeError {
 }
 
 /// The HTTP routes over `state`.
+///
+/// With API keys, `/v1` and `/metrics` need a key in the `Authorization`
+/// header; `?access_token=` is accepted instead only by the stream and the
+/// download, which a browser opens without headers. `/healthz`, `/readyz`,
+/// the documents and the viewer stay open (probes carry no secrets). Every
+/// `/v1` body is read by `guard::read_body` once the key is checked.
 pub fn app(state: AppState) -> Router {
-    let v1 = Router::new()
+    let header_key = from_fn_with_state(Gate::header(&state), auth::require_key);
+    let any_key = from_fn_with_state(Gate::header_or_query(&state), auth::require_key);
+    let body = from_fn_with_state(state.clone(), guard::read_body);
+    let api = Router::new()
         .route("/jobs", get(api::list).post(api::submit))
         .route("/jobs/{id}", get(api::get).delete(api::cancel))
         .route("/jobs/{id}/frames/{n}", get(api::frame))
+        .route_layer(body.clone())
+        .route_layer(header_key.clone());
+    let browser = Router::new()
         .route("/jobs/{id}/result", get(api::result))
         .route("/jobs/{id}/stream", get(stream::stream))
-        .route_layer(axum::middleware::from_fn_with_state(
-            state.clone(),
-            auth::require_key,
-        ));
+        .route_layer(body)
+        .route_layer(any_key);
     let cors = cors(&state.config.cors_origins);
     let mut app = Router::new()
-        .nest("/v1", v1)
+        .nest("/v1", api.merge(browser))
         .route("/healthz", get(ops::healthz))
         .route("/readyz", get(ops::readyz))
-        .route("/metrics", get(ops::metrics))
+        .route("/metrics", get(ops::metrics).route_layer(header_key))
         .route("/openapi.json", get(openapi::serve_document))
         .route("/job.schema.json", get(openapi::serve_job_schema))
         .route("/", get(viewer::index))
@@ -89,6 +107,7 @@ pub fn app(state: AppState) -> Router {
         .route("/examples", get(viewer::examples))
         .route("/examples/{name}", get(viewer::example))
         .layer(DefaultBodyLimit::max(state.config.max_body_bytes))
+        .layer(axum::middleware::from_fn(guard::envelope))
         .layer(
             TraceLayer::new_for_http().make_span_with(|req: &axum::http::Request<_>| {
                 tracing::info_span!("request", method = %req.method(), path = %req.uri().path())
@@ -150,41 +169,74 @@ pub async fn run(
         viewer_bytes = viewer::load_size(),
         "listening"
     );
-    let reaper = {
-        let jobs = Arc::clone(&jobs);
-        tokio::spawn(async move {
-            let mut tick = tokio::time::interval(DEADLINE_CHECK);
-            loop {
-                tick.tick().await;
-                jobs.enforce_deadlines();
-            }
-        })
-    };
+    let reaper = tokio::spawn(reap(Arc::clone(&jobs)));
+    let (signalled, heard) = tokio::sync::oneshot::channel::<()>();
     let stopping = {
         let jobs = Arc::clone(&jobs);
         async move {
             shutdown.await;
-            info!("shutdown requested: no new requests; running jobs checkpoint");
+            info!("shutdown requested: no new connections; running jobs checkpoint");
             jobs.begin_shutdown();
+            let _ = signalled.send(());
         }
     };
-    let served = axum::serve(listener, app(state.clone()))
-        .with_graceful_shutdown(stopping)
-        .await;
+    let config = &state.config;
+    let limits = ConnectionLimits {
+        max_connections: config.max_connections,
+        header_timeout: config.header_timeout,
+        idle_timeout: config.idle_timeout,
+    };
+    let http = connections::serve(
+        listener,
+        app(state.clone()),
+        limits,
+        stopping,
+        grace(config),
+    );
+    let winding_down = async {
+        let _ = heard.await;
+        // Also when serving ended otherwise: the workers only end once told.
+        jobs.begin_shutdown();
+        drain(&jobs, config, workers).await;
+    };
+    tokio::join!(http, winding_down);
     reaper.abort();
-    // Also when serving failed: the workers only end once told to.
-    jobs.begin_shutdown();
-    drain(&jobs, &state.config, workers).await;
     info!("stopped");
-    Ok(served?)
+    Ok(())
+}
+
+/// The periodic duties: wall-time limits (every 250 ms) and, with
+/// `--retention`, the deletion of ended jobs it no longer keeps.
+async fn reap(jobs: Arc<Jobs>) {
+    let mut deadlines = tokio::time::interval(DEADLINE_CHECK);
+    let mut retention = tokio::time::interval(RETENTION_CHECK);
+    let retains = !jobs.config().retention.is_empty();
+    loop {
+        tokio::select! {
+            _ = deadlines.tick() => jobs.enforce_deadlines(),
+            _ = retention.tick(), if retains => {
+                let jobs = Arc::clone(&jobs);
+                match tokio::task::spawn_blocking(move || jobs.apply_retention()).await {
+                    Ok(Ok(0)) => {}
+                    Ok(Ok(n)) => info!(deleted = n, "retention deleted ended jobs"),
+                    Ok(Err(e)) => warn!(error = %e, "retention failed"),
+                    Err(e) => warn!(error = %e, "retention task failed"),
+                }
+            }
+        }
+    }
+}
+
+/// `--shutdown-grace` as a duration.
+fn grace(config: &Config) -> Duration {
+    Duration::try_from_secs_f64(config.shutdown_grace.max(0.0)).unwrap_or(Duration::MAX)
 }
 
 /// Waits for workers to stop at a frame (and checkpoint) within the grace
 /// period; then asks the stragglers to stop at their next step, and joins
 /// every worker.
 async fn drain(jobs: &Jobs, config: &Config, workers: Vec<JoinHandle<()>>) {
-    let grace =
-        Duration::try_from_secs_f64(config.shutdown_grace.max(0.0)).unwrap_or(Duration::MAX);
+    let grace = grace(config);
     let start = Instant::now();
     while jobs.running_count() > 0 && start.elapsed() < grace {
         tokio::time::sleep(Duration::from_millis(50)).await;
@@ -220,7 +272,7 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServeError> {
         .thread_name("http")
         .build()
         .map_err(ServeError::Runtime)?;
-    runtime.block_on(async {
+    let served = runtime.block_on(async {
         let listener = TcpListener::bind(args.addr)
             .await
             .map_err(|source| ServeError::Bind {
@@ -230,7 +282,11 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServeError> {
         // Tests and scripts read the address from the first stdout line.
         println!("listening on http://{}", listener.local_addr()?);
         run(listener, state, shutdown_signal()).await
-    })
+    });
+    // A blocking task still running (a large download being built) does
+    // not hold the exit back.
+    runtime.shutdown_timeout(Duration::from_secs(1));
+    served
 }
 
 /// SIGINT or SIGTERM.

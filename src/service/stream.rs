@@ -6,12 +6,15 @@
 
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::{Extension, Path, Query, State};
-use axum::response::{IntoResponse, Response};
+use axum::extract::{Extension, Path, State};
+use axum::http::HeaderMap;
+use axum::response::Response;
 use serde::Deserialize;
 use utoipa::IntoParams;
 
+use super::auth::check_origin;
 use super::error::{ApiError, ErrorResponse};
+use super::extract::Query;
 use super::frame_bytes::binary_frame;
 use super::jobs::{Event, Fault, Subscription};
 use super::keys::Owner;
@@ -24,7 +27,12 @@ use super::state::AppState;
 pub struct StreamQuery {
     /// First frame to send (default 0): stored frames from here are
     /// replayed, then the stream goes live.
+    #[param(minimum = 0)]
     from: Option<u64>,
+    /// The API key, for a browser, which cannot set the `Authorization`
+    /// header on a WebSocket.
+    #[allow(dead_code)]
+    access_token: Option<String>,
 }
 
 /// Stream a job's frames over WebSocket (live, or replayed when ended).
@@ -40,8 +48,10 @@ pub struct StreamQuery {
     params(("id" = String, Path, description = "Job id"), StreamQuery),
     responses(
         (status = 101, description = "Switching to WebSocket: hello, then stats + binary frame per frame, then done/failed/cancelled"),
-        (status = 404, body = ErrorResponse),
-        (status = 401, body = ErrorResponse),
+        (status = 400, description = "Not a WebSocket handshake, or a bad `from`", body = ErrorResponse),
+        (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
+        (status = 403, description = "A browser page of another origin (see --cors-origin)", body = ErrorResponse),
+        (status = 404, description = "No such job", body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -50,17 +60,21 @@ pub async fn stream(
     Extension(owner): Extension<Owner>,
     Path(id): Path<String>,
     Query(q): Query<StreamQuery>,
+    headers: HeaderMap,
     ws: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
 ) -> Result<Response, ApiError> {
+    check_origin(&headers, &state.config.cors_origins)?;
     let sub = state
         .jobs
         .subscribe(&owner, &id, q.from.unwrap_or(0))
         .await?;
     // The job is checked first, so a missing one is 404 for any client.
-    let ws = match ws {
-        Ok(ws) => ws,
-        Err(e) => return Ok(e.into_response()),
-    };
+    let ws = ws.map_err(|e| {
+        ApiError::bad_request(format!(
+            "{}: open this stream with a WebSocket client",
+            e.body_text()
+        ))
+    })?;
     Ok(ws.on_upgrade(move |socket| async move {
         let id = sub.id();
         if let Err(e) = send(socket, sub).await {

@@ -65,6 +65,11 @@ impl Jobs {
             return Ok(None);
         }
         self.hub.update(id, |l| l.status = Status::Running);
+        if let Err(e) = self.store_hello(&row) {
+            // Its streams build it when they need it; the run itself
+            // reports a spec that does not load.
+            error!(error = %e, "the job's hello could not be stored");
+        }
         info!(attempt = row.attempts + 1, "job started");
         Ok(Some(Attempt { row, handle }))
     }
@@ -72,6 +77,11 @@ impl Jobs {
     /// The latest checkpoint of job `id`: its frame and data.
     pub fn checkpoint(&self, id: JobId) -> Result<Option<(u64, Vec<u8>)>, StoreError> {
         self.store.checkpoint(id)
+    }
+
+    /// The bytes job `id` holds: hello, frames `0..=upto`, checkpoint.
+    pub fn stored_bytes(&self, id: JobId, upto: Option<u64>) -> Result<u64, StoreError> {
+        self.store.stored_bytes(id, upto)
     }
 
     /// The statistics JSON of frames `0..=upto` of job `id`.

@@ -4,6 +4,7 @@
 
 use drapery_sim::spec::SpecError;
 
+use crate::service::cost::OverBudget;
 use crate::service::job::{JobId, Status};
 use crate::service::results::ExportError;
 use crate::service::store::StoreError;
@@ -26,6 +27,9 @@ pub enum Fault {
     /// queues it.
     #[error("job {id} is {} but not tracked", status.as_str())]
     Untracked { id: JobId, status: Status },
+    /// A stored spec no longer loads or draws.
+    #[error("job {id}: the stored spec cannot make a hello: {message}")]
+    Hello { id: JobId, message: String },
 }
 
 impl From<tokio::task::JoinError> for Fault {
@@ -45,6 +49,9 @@ pub enum SubmitError {
     /// A valid spec with an obstacle that cannot be drawn for the stream.
     #[error("{}", .0.message)]
     Undrawable(SpecError),
+    /// A valid spec whose estimate is beyond one or more budgets.
+    #[error("{}", .0.first().map(ToString::to_string).unwrap_or_default())]
+    OverBudget(Vec<OverBudget>),
     #[error("{capacity} jobs are already waiting (--queue-capacity); try again later")]
     QueueFull { capacity: usize },
     #[error("the server is shutting down")]

@@ -36,9 +36,13 @@ impl ListFilter {
         if !(1..=500).contains(&limit) {
             return Err(ListError::Limit);
         }
+        // A cursor is a `next_cursor`: 1 to 18 digits, nothing else.
         let before = match cursor {
             None => None,
-            Some(c) => Some(c.parse::<i64>().map_err(|_| ListError::Cursor)?),
+            Some(c) if (1..=18).contains(&c.len()) && c.bytes().all(|b| b.is_ascii_digit()) => {
+                Some(c.parse::<i64>().map_err(|_| ListError::Cursor)?)
+            }
+            Some(_) => return Err(ListError::Cursor),
         };
         Ok(Self {
             status,

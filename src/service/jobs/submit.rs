@@ -2,15 +2,16 @@
 
 use std::sync::Arc;
 
+use drapery_sim::spec::Scene;
 use tracing::info;
 
 use super::error::{Fault, SubmitError};
 use super::hello;
 use super::hub::Live;
 use super::lifecycle::Jobs;
+use crate::service::cost;
 use crate::service::job::{JobId, Status, now};
 use crate::service::keys::Owner;
-use crate::service::protocol::StreamMessage;
 use crate::service::store::{JobRow, NewJob};
 use crate::specfile;
 
@@ -33,9 +34,16 @@ impl Jobs {
     fn submit_now(&self, owner: &str, body: &[u8]) -> Result<JobRow, SubmitError> {
         let text = std::str::from_utf8(body).map_err(SubmitError::NotUtf8)?;
         let scene = specfile::load(text, &self.config.limits).map_err(SubmitError::Spec)?;
+        let estimate = cost::estimate(&scene, mesh_triangles(&scene));
+        let over = self.config.budgets.check(&estimate);
+        if !over.is_empty() {
+            self.metrics.rejected_over_budget.inc();
+            return Err(SubmitError::OverBudget(over));
+        }
+        // NOTE: the hello itself is built when the job first starts: a job
+        // cancelled while it waits never pays for it, in time or disk.
+        hello::check(&scene).map_err(SubmitError::Undrawable)?;
         let id = JobId::generate();
-        let hello = hello::build(&scene, id).map_err(SubmitError::Undrawable)?;
-        let hello = StreamMessage::Hello(hello).to_json();
         let _guard = self.submit_lock();
         if self.queue.len() >= self.config.queue_capacity {
             self.metrics.rejected_queue_full.inc();
@@ -51,7 +59,7 @@ impl Jobs {
             owner,
             name: &scene.name,
             spec: text,
-            hello: &hello,
+            hello: "",
             frames_total: scene.frames as u64 + 1,
             created_at: now(),
         })?;
@@ -66,4 +74,17 @@ impl Jobs {
         self.metrics.submitted.inc();
         Ok(self.store.job(id)?.ok_or(Fault::Vanished(id))?)
     }
+}
+
+/// The triangles of the scene's obstacle meshes (primitives have none:
+/// collision treats them exactly). Validation loaded each mesh already, so
+/// none fails here.
+fn mesh_triangles(scene: &Scene) -> u64 {
+    scene
+        .obstacles
+        .iter()
+        .filter_map(|o| o.mesh.as_ref())
+        .filter_map(|m| drapery_sim::mesh::from_source(m).ok())
+        .map(|m| m.triangles().len() as u64)
+        .sum()
 }

@@ -72,14 +72,10 @@ impl Subscription {
         self.id
     }
 
-    /// The job's stored hello message (empty if it has none).
+    /// The job's hello message (stored once it started, else built).
     pub async fn hello(&self) -> Result<String, Fault> {
         let id = self.id;
-        let hello = self
-            .jobs
-            .blocking(move |jobs| Ok::<_, Fault>(jobs.store.hello(id)?))
-            .await?;
-        Ok(hello.unwrap_or_default())
+        self.jobs.blocking(move |jobs| jobs.hello_of(id)).await
     }
 
     /// The next event; `None` after the end or the interruption.

@@ -13,7 +13,7 @@ use std::sync::Mutex;
 use rusqlite::Connection;
 use rusqlite::types::{FromSql, FromSqlError, FromSqlResult, ToSql, ToSqlOutput, ValueRef};
 
-use super::schema::{SCHEMA, open_connection};
+use super::schema::{SCHEMA, enable_incremental_vacuum, open_connection};
 use crate::service::job::{JobId, Status};
 
 /// Why the store failed.
@@ -55,6 +55,7 @@ impl Store {
         })?;
         let path = dir.join("drapery.sqlite3");
         let writer = open_connection(&path).map_err(StoreError::Open)?;
+        enable_incremental_vacuum(&writer).map_err(StoreError::Open)?;
         writer.execute_batch(SCHEMA).map_err(StoreError::Open)?;
         let reader = open_connection(&path).map_err(StoreError::Open)?;
         Ok(Self {

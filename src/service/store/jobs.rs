@@ -193,12 +193,14 @@ impl Store {
                     end.run_seconds
                 ],
             )?;
-            // The checkpoint only serves a resume; an ended job has none.
+            // The checkpoint only serves a resume; an ended job has none,
+            // and its pages go back to the file system.
             tx.execute(
                 "DELETE FROM checkpoints WHERE job = (SELECT seq FROM jobs WHERE id = ?1)",
                 [id],
             )?;
-            tx.commit()
+            tx.commit()?;
+            super::schema::reclaim(c)
         })
     }
 

@@ -18,6 +18,7 @@
 mod db;
 mod frames;
 mod jobs;
+mod retention;
 mod schema;
 
 pub use db::{Store, StoreError};

@@ -42,13 +42,46 @@ CREATE TABLE IF NOT EXISTS checkpoints (
 );
 ";
 
-/// A connection to the database at `path`: WAL, `synchronous = NORMAL`,
-/// foreign keys on, and a wait of up to 10 s for a lock.
+/// The write-ahead log is cut back to this size when a checkpoint empties
+/// it (a large frame's transaction may grow it far beyond).
+const WAL_LIMIT_BYTES: i64 = 16 << 20;
+
+/// A connection to the database at `path`: WAL (cut back to 16 MiB after
+/// each checkpoint), `synchronous = NORMAL`, foreign keys on, and a wait of
+/// up to 10 s for a lock.
 pub fn open_connection(path: &Path) -> rusqlite::Result<Connection> {
     let c = Connection::open(path)?;
     c.busy_timeout(std::time::Duration::from_secs(10))?;
     c.pragma_update(None, "journal_mode", "WAL")?;
     c.pragma_update(None, "synchronous", "NORMAL")?;
     c.pragma_update(None, "foreign_keys", "ON")?;
+    c.pragma_update(None, "journal_size_limit", WAL_LIMIT_BYTES)?;
     Ok(c)
+}
+
+/// Makes the file give deleted jobs' pages back to the file system:
+/// `auto_vacuum = INCREMENTAL`, which a database takes only before its
+/// first table or through one `VACUUM` (done once, on the first open of a
+/// directory an earlier version made). Freed pages then go back with
+/// `PRAGMA incremental_vacuum` ([`reclaim`]).
+pub fn enable_incremental_vacuum(c: &Connection) -> rusqlite::Result<()> {
+    const INCREMENTAL: i64 = 2;
+    let mode: i64 = c.pragma_query_value(None, "auto_vacuum", |r| r.get(0))?;
+    if mode != INCREMENTAL {
+        c.pragma_update(None, "auto_vacuum", INCREMENTAL)?;
+        c.execute_batch("VACUUM")?;
+    }
+    Ok(())
+}
+
+/// Gives free pages back to the file system and empties the write-ahead
+/// log into the database, which `journal_size_limit` then truncates.
+pub fn reclaim(c: &Connection) -> rusqlite::Result<()> {
+    // Stepped to its end: each step frees one page.
+    let mut vacuum = c.prepare("PRAGMA incremental_vacuum")?;
+    let mut steps = vacuum.query([])?;
+    while steps.next()?.is_some() {}
+    // Busy (a reader holds an old snapshot) is not an error: the next
+    // checkpoint does it.
+    c.query_row("PRAGMA wal_checkpoint(TRUNCATE)", [], |_| Ok(()))
 }

@@ -81,26 +81,33 @@ fn attempt(jobs: &Jobs, id: JobId) -> Result<(), StoreError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cli::{Cli, Command};
     use crate::service::config::Config;
     use crate::service::job::Status;
-    use crate::service::keys::Keys;
     use crate::service::keys::Owner;
     use crate::service::store::Store;
-    use drapery_sim::spec::Limits;
+    use clap::Parser;
 
     fn jobs() -> Arc<Jobs> {
         let dir = std::env::temp_dir().join(format!("drapery-worker-{}", uuid::Uuid::now_v7()));
-        let config = Config {
-            workers: 1,
-            queue_capacity: 4,
-            limits: Limits::default(),
-            max_wall_seconds: 60.0,
-            max_body_bytes: 1 << 20,
-            keys: Keys::default(),
-            cors_origins: Vec::new(),
-            checkpoint_seconds: 1.0,
-            shutdown_grace: 1.0,
+        let argv = [
+            "drapery",
+            "serve",
+            "--workers",
+            "1",
+            "--queue-capacity",
+            "4",
+            "--max-wall-seconds",
+            "60",
+            "--checkpoint-seconds",
+            "1",
+            "--shutdown-grace",
+            "1",
+        ];
+        let Command::Serve(args) = Cli::try_parse_from(argv).expect("flags").command else {
+            unreachable!("parsed as serve");
         };
+        let config = Config::from_args(&args).expect("a configuration");
         Arc::new(Jobs::new(
             Arc::new(config),
             Store::open(&dir).expect("store"),

@@ -10,6 +10,7 @@ use drapery_sim::sim::{Checkpoint, Control, FrameStats, SimError, Simulation, St
 use serde_json::{Map, Value};
 use tracing::{info, warn};
 
+use crate::service::cost;
 use crate::service::error_code::ErrorCode;
 use crate::service::frame_bytes::encode_positions;
 use crate::service::job::JobError;
@@ -33,14 +34,23 @@ pub enum RunError {
 }
 
 /// Runs `attempt` to its end (or its stop), storing every frame.
+///
+/// The disk budget holds in fact: the bytes the job holds in the store
+/// (hello, frames, the latest checkpoint) are counted as frames are
+/// written, and the frame that would take them past `--job-disk-budget`
+/// is not stored; the job fails with `limit_exceeded`.
 pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
     let row = &attempt.row;
     let scene = row.scene().map_err(RunError::Scene)?;
     let mut sim = Simulation::new(&scene)?;
     let mut rec = sim.recorder();
-    if let Some((frame, data)) = jobs.checkpoint(row.id)?
-        && frame > 0
-    {
+    let resumed = jobs.checkpoint(row.id)?.filter(|(frame, _)| *frame > 0);
+    let mut disk = DiskUse {
+        stored: jobs.stored_bytes(row.id, resumed.as_ref().map(|(frame, _)| *frame))?,
+        checkpoint: resumed.as_ref().map_or(0, |(_, data)| data.len() as u64),
+        budget: jobs.config().budgets.disk_bytes,
+    };
+    if let Some((frame, data)) = resumed {
         let checkpoint: Checkpoint = serde_json::from_slice(&data)?;
         sim.resume(checkpoint)?;
         for s in jobs.frame_stats(row.id, frame)? {
@@ -73,6 +83,7 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
             positions: encode_positions(&s.state().x),
             stats: frame_report(s, stats),
         };
+        disk.add(&frame, checkpoint.as_deref())?;
         let per_step = (stats.steps > 0).then(|| stats.step_seconds / stats.steps as f64);
         jobs.record_frame(row.id, &frame, checkpoint.as_deref(), per_step)
             .map_err(|e| e.to_string())?;
@@ -85,6 +96,16 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
         |rec: &StatsRecorder| run_summary(rec, row.run_seconds + started.elapsed().as_secs_f64());
     Ok(match result {
         Ok(()) => Outcome::Succeeded(summary(&rec)),
+        Err(SimError::Output(_)) if disk.over() => Outcome::Failed(
+            JobError {
+                code: ErrorCode::LimitExceeded,
+                message: format!(
+                    "disk budget of {} reached: the job's next frame would store more (--job-disk-budget)",
+                    cost::bytes(disk.budget as f64)
+                ),
+            },
+            Some(summary(&rec)),
+        ),
         Err(SimError::Cancelled { .. }) => match attempt.handle.reason() {
             StopReason::WallTime => Outcome::Failed(
                 JobError {
@@ -118,6 +139,37 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
             )
         }
     })
+}
+
+/// What a job holds in the store, against its disk budget.
+#[derive(Debug)]
+struct DiskUse {
+    /// Hello, frames and the latest checkpoint, bytes.
+    stored: u64,
+    /// The latest checkpoint's bytes (a new one replaces it).
+    checkpoint: u64,
+    budget: u64,
+}
+
+impl DiskUse {
+    /// Counts `frame` and `checkpoint` in, or refuses them past the budget.
+    fn add(&mut self, frame: &StoredFrame, checkpoint: Option<&[u8]>) -> Result<(), String> {
+        let checkpoint = checkpoint.map_or(self.checkpoint, |c| c.len() as u64);
+        let stored = self.stored.saturating_sub(self.checkpoint)
+            + checkpoint
+            + (frame.positions.len() + frame.stats.len()) as u64;
+        if stored > self.budget {
+            self.stored = stored;
+            return Err("disk budget exceeded".to_owned());
+        }
+        self.stored = stored;
+        self.checkpoint = checkpoint;
+        Ok(())
+    }
+
+    fn over(&self) -> bool {
+        self.stored > self.budget
+    }
 }
 
 /// The run's statistics without the per-frame list, as JSON.
