@@ -309,6 +309,20 @@ pub struct PrecisionArgs {
     /// Step of the tolerance sweep; default: the scene's `solver.dt`.
     #[arg(long, value_parser = parse_seconds)]
     pub tolerance_dt: Option<f64>,
+    /// Integrators of the time-step and adaptive sweeps, each a front of
+    /// its own (the reference is BDF2; the tolerance sweep uses the
+    /// scene's integrator).
+    #[arg(long, value_delimiter = ',', default_value = "euler,bdf2")]
+    pub integrators: Vec<drapery_sim::spec::IntegratorKind>,
+    /// Position errors per frame (metres) of the adaptive sweep, each run
+    /// with `dt: "adaptive"` and that `solver.error`; `--errors ''` skips
+    /// the sweep.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1e-2,3e-3,1e-3,3e-4,1e-4"
+    )]
+    pub errors: Vec<f64>,
     /// Simulated seconds; default: the scene's `duration`.
     #[arg(long)]
     pub duration: Option<f64>,

@@ -64,7 +64,8 @@ fn drapery(args: &[&str], dirs: &[&std::path::Path]) -> std::process::Output {
 }
 
 /// A small cloth held by two corners, swinging for 0.2 s: smooth (no
-/// contact), so implicit Euler's first order shows at once.
+/// contact), so implicit Euler's first order and BDF2's second show at
+/// once.
 const HANGING: &str = r#"{"cloth": {"grid": [6, 6], "size": [0.5, 0.5], "origin": [0, 0, 1],
     "pinned": [[0, 0], [5, 0]]}, "material": "cotton", "duration": 0.2, "fps": 30}"#;
 
@@ -81,7 +82,7 @@ fn column<'a>(csv: &'a str, name: &str) -> Vec<&'a str> {
 }
 
 #[test]
-fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
+fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference() {
     let dir = temp_dir("precision");
     let spec = dir.join("hanging.json");
     std::fs::write(&spec, HANGING).expect("spec");
@@ -95,6 +96,8 @@ fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
         "2",
         "--tolerances",
         "1e-3,1e-6",
+        "--errors",
+        "1e-3,1e-4",
         "--out",
     ];
     let run = |out: &std::path::Path, extra: &[&str]| {
@@ -109,7 +112,18 @@ fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
     assert!(o.status.success(), "{stderr}");
     let csv = std::fs::read_to_string(first.join("precision.csv")).expect("csv");
     let sweeps = column(&csv, "sweep");
-    assert_eq!(sweeps, ["dt", "dt", "dt", "dt", "tolerance", "tolerance"]);
+    let mut expected = vec!["dt"; 8];
+    expected.extend(["tolerance"; 2]);
+    expected.extend(["adaptive"; 4]);
+    assert_eq!(sweeps, expected);
+    let integrators = column(&csv, "integrator");
+    assert_eq!(
+        integrators[..8],
+        [
+            "euler", "euler", "euler", "euler", "bdf2", "bdf2", "bdf2", "bdf2"
+        ]
+    );
+    assert_eq!(integrators[10..], ["euler", "euler", "bdf2", "bdf2"]);
     let num = |name: &str| -> Vec<f64> {
         column(&csv, name)
             .iter()
@@ -124,29 +138,49 @@ fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
     // last ratio towards (2 - 1/8) / (1 - 1/8) = 2.14) and for the
     // higher-order terms at the large steps; a zeroth- or second-order
     // error would fall outside them.
-    let orders: Vec<f64> = (0..3)
-        .map(|k| {
-            assert!((dt[k] / dt[k + 1] - 2.0).abs() < 1e-9);
-            (err[k] / err[k + 1]).log2()
-        })
-        .collect();
+    let orders = |first: usize| -> Vec<f64> {
+        (first..first + 3)
+            .map(|k| {
+                assert!((dt[k] / dt[k + 1] - 2.0).abs() < 1e-9);
+                (err[k] / err[k + 1]).log2()
+            })
+            .collect()
+    };
+    let euler = orders(0);
     assert!(
-        orders.iter().all(|p| (0.6..1.7).contains(p)),
-        "{orders:?}: {csv}"
+        euler.iter().all(|p| (0.6..1.7).contains(p)),
+        "{euler:?}: {csv}"
     );
-    let mean = orders.iter().sum::<f64>() / 3.0;
-    assert!((0.8..1.5).contains(&mean), "{orders:?}: {csv}");
+    let mean = euler.iter().sum::<f64>() / 3.0;
+    assert!((0.8..1.5).contains(&mean), "{euler:?}: {csv}");
+    // BDF2 at second order on this smooth swing, and more accurate than
+    // Euler at every step.
+    let bdf2 = orders(4);
+    let mean = bdf2.iter().sum::<f64>() / 3.0;
+    assert!(mean > 1.6, "{bdf2:?}: {csv}");
+    assert!((0..4).all(|k| err[k + 4] < err[k]), "{csv}");
     // The solver's error shrinks with its tolerance.
     let solver = num("solver_error_rms");
-    assert!(solver[4] > solver[5] && solver[5] < 1e-4, "{csv}");
+    assert!(solver[8] > solver[9] && solver[9] < 1e-4, "{csv}");
+    // The adaptive runs: a tighter request, a smaller error; each run's
+    // own estimate within its request.
+    let (target, estimate) = (num("error_target"), num("error_estimate"));
+    for k in [10, 12] {
+        assert!(target[k] == 1e-3 && target[k + 1] == 1e-4, "{csv}");
+        assert!(err[k + 1] < err[k], "{csv}");
+        assert!(
+            estimate[k] <= target[k] && estimate[k + 1] <= target[k + 1],
+            "{csv}"
+        );
+    }
     assert!(column(&csv, "pareto").contains(&"true"));
     assert!(stderr.contains("observed order in dt"), "{stderr}");
     assert!(first.join("reference.bin").is_file());
     let svg = std::fs::read_to_string(first.join("precision.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
-    // Every run's error frame by frame: 6 frames after frame 0, 6 runs.
+    // Every run's error frame by frame: 6 frames after frame 0, 14 runs.
     let frames = std::fs::read_to_string(first.join("precision-frames.csv")).expect("frames");
-    assert_eq!(frames.lines().count(), 1 + 6 * 6, "{frames}");
+    assert_eq!(frames.lines().count(), 1 + 14 * 6, "{frames}");
     assert!(first.join("precision-frames.svg").is_file());
 
     // The saved reference gives the same errors without being recomputed.
@@ -163,6 +197,8 @@ fn bench_precision_converges_at_first_order_and_reuses_its_reference() {
             "3",
             "--tolerances",
             "1e-3,1e-6",
+            "--errors",
+            "1e-3,1e-4",
             "--reference",
         ],
         &[&first, std::path::Path::new("--out"), &second, &spec],

@@ -3,15 +3,18 @@
 //! modified PCG (eqs. [15]-[20]), never a force.
 //!
 //! For a contact with world normal `n`, offset-surface point `p0` now,
-//! obstacle velocity `w` there, and the particle's signed gap
-//! `g = n·(x - p0)`:
+//! obstacle velocity `w` there (so the point is at `p0 + w h` when the
+//! step ends), and the particle's signed gap `g = n·(x - p0)`; the step's
+//! scheme ends the particle at `x + p + h' v1 + y` ([`Scheme::end`]; for
+//! backward Euler `p = 0`, `h' = h`):
 //!
-//! - sliding: `S = I - n nᵀ`; `z = n (n·(w - v) - g/h)` for a particle
-//!   outside (`g > 0`), the normal velocity that lands it on the surface at
-//!   the step's end; `z = n n·(w - v)` and `y = -g n` for one inside, the
-//!   correction of eq. [20] that puts it back (§4, "position");
-//! - sticking (static friction): `S = 0`, the same split with the full
-//!   `w - v` and `p0 - x`: the particle moves with the obstacle.
+//! - sliding: `S = I - n nᵀ`; for a particle outside (`g > 0`) the normal
+//!   velocity `n·v1` that lands it on the moving surface when the step
+//!   ends, no correction; for one inside `n·v1 = n·w` and the correction
+//!   `y` along `n` of eq. [20] that puts it back on the surface (§4,
+//!   "position"); `z = n (n·v1 - n·v)`;
+//! - sticking (static friction): `S = 0`, the same split with the whole
+//!   vectors: the particle moves with the obstacle.
 //!
 //! Closing a gap through the velocity rather than through `y` keeps the
 //! constraint force honest: if the particle was not really going to reach
@@ -22,7 +25,7 @@
 //! `z` and `y` solving both conditions in the span of the normals.
 
 use crate::math::{Real, Vec3};
-use crate::solver::{Constraints, Filter};
+use crate::solver::{Constraints, Filter, Scheme};
 
 /// A particle held by an obstacle.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -53,14 +56,14 @@ pub struct Plan {
 
 /// Writes particle `i`'s constraints from its contacts this step (all
 /// with `particle == i`, plans alongside) given its velocity `v` and
-/// position `x`, for a step of `h`. A push out of the solid longer than
-/// `max_push` is shortened to it (the rest follows in later steps).
+/// position `x`, for a step of `scheme`. A push out of the solid longer
+/// than `max_push` is shortened to it (the rest follows in later steps).
 pub fn constrain(
     i: usize,
     contacts: &[(Contact, Plan)],
     x: &Vec3,
     v: &Vec3,
-    h: Real,
+    scheme: &Scheme<'_>,
     max_push: Real,
     c: &mut Constraints,
 ) {
@@ -68,14 +71,15 @@ pub fn constrain(
         let n = y.norm();
         if n > max_push { y * (max_push / n) } else { y }
     };
+    let h = scheme.h;
     if let Some((_, p)) = contacts.iter().find(|(k, _)| k.sticking) {
-        let d = p.point - x;
-        let (z, y) = if p.normal.dot(&d) < 0.0 {
-            (p.velocity - v + d / h, Vec3::zeros())
+        let target = p.point + p.velocity * h;
+        let (v1, y) = if p.normal.dot(&(p.point - x)) < 0.0 {
+            (scheme.velocity_to(i, x, &target), Vec3::zeros())
         } else {
-            (p.velocity - v, cap(d))
+            (p.velocity, cap(target - scheme.end(i, x, &p.velocity)))
         };
-        c.fix(i, z, y);
+        c.fix(i, v1 - v, y);
         return;
     }
     // Conditions n·dv = a, n·y = e per contact; keep the two that push out
@@ -84,12 +88,14 @@ pub fn constrain(
         .iter()
         .map(|(_, p)| {
             let n = p.normal;
-            let a = n.dot(&(p.velocity - v));
-            let e = n.dot(&(p.point - x));
-            if e < 0.0 {
-                (n, a + e / h, 0.0)
+            let target = p.point + p.velocity * h;
+            if n.dot(&(p.point - x)) < 0.0 {
+                let v1n = n.dot(&scheme.velocity_to(i, x, &target));
+                (n, v1n - n.dot(v), 0.0)
             } else {
-                (n, a, e)
+                let v1n = n.dot(&p.velocity);
+                let e = n.dot(&(target - scheme.end(i, x, &(n * v1n))));
+                (n, v1n - n.dot(v), e)
             }
         })
         .collect();
@@ -161,7 +167,15 @@ mod tests {
             slip: Vec3::zeros(),
         };
         let (x, v, h) = (Vec3::new(0.3, -0.2, 0.05), Vec3::new(1.0, 2.0, -3.0), 0.01);
-        constrain(0, &[(contact(false), plan)], &x, &v, h, 1.0, &mut c);
+        constrain(
+            0,
+            &[(contact(false), plan)],
+            &x,
+            &v,
+            &Scheme::euler(h),
+            1.0,
+            &mut c,
+        );
         // Any free dv leaves the normal parts where z puts them.
         let dv = c.z[0] + c.filter[0].apply(&Vec3::new(0.7, -0.4, 0.2));
         assert!(((v + dv).dot(&n) - plan.velocity.dot(&n)).abs() < 1e-14);
@@ -173,7 +187,15 @@ mod tests {
         // the step still ends on the surface.
         let above = plan.point + n * 0.02;
         let mut c = Constraints::free(1);
-        constrain(0, &[(contact(false), plan)], &above, &v, h, 1.0, &mut c);
+        constrain(
+            0,
+            &[(contact(false), plan)],
+            &above,
+            &v,
+            &Scheme::euler(h),
+            1.0,
+            &mut c,
+        );
         assert_eq!(c.y[0], Vec3::zeros());
         let x1 = above + (v + c.z[0]) * h;
         assert!((x1 - p1).dot(&n).abs() < 1e-14);
@@ -202,7 +224,7 @@ mod tests {
             &[(contact(false), p1), (contact(false), p2)],
             &x,
             &v,
-            h,
+            &Scheme::euler(h),
             1.0,
             &mut c,
         );
@@ -225,7 +247,15 @@ mod tests {
             slip: Vec3::zeros(),
         };
         let (x, v, h) = (Vec3::new(1.0, 0.0, 0.001), Vec3::zeros(), 0.01);
-        constrain(0, &[(contact(true), plan)], &x, &v, h, 1.0, &mut c);
+        constrain(
+            0,
+            &[(contact(true), plan)],
+            &x,
+            &v,
+            &Scheme::euler(h),
+            1.0,
+            &mut c,
+        );
         assert_eq!(c.filter[0], Filter::Fixed);
         let x1 = x + (v + c.z[0]) * h + c.y[0];
         assert!((x1 - (plan.point + plan.velocity * h)).norm() < 1e-15);

@@ -23,7 +23,7 @@ use super::contact::{self, Contact, Plan};
 use super::obstacles::Obstacles;
 use super::scratch::CollisionScratch;
 use crate::math::{Real, Vec3};
-use crate::solver::Constraints;
+use crate::solver::{Constraints, Scheme};
 
 /// A crossing found after the solve that ends less than this fraction of
 /// the offset inside the offset surface is left for the next step's
@@ -52,6 +52,8 @@ pub struct StepFrame<'a> {
     pub time: Real,
     /// The step's size.
     pub h: Real,
+    /// How the step carries particles to its end.
+    pub scheme: Scheme<'a>,
 }
 
 /// After the solve: accept the step, or redo it with the contacts just
@@ -80,8 +82,8 @@ pub struct CollisionStage<'a> {
 
 impl CollisionStage<'_> {
     /// Before the solve of a step from `x`, `v`: finds new contacts along
-    /// the predicted path `x + h (v + dv_guess)` and among particles
-    /// already inside, then writes every contact's `S`, `z`, `y` and
+    /// the predicted path to `x + p + h' (v + dv_guess)` (the scheme's end
+    /// of the step) and among particles already inside, then writes every contact's `S`, `z`, `y` and
     /// kinetic friction into `c` (pinned particles are left alone).
     pub fn prepare(
         &mut self,
@@ -94,7 +96,8 @@ impl CollisionStage<'_> {
         let h = step.h;
         let mut predicted = std::mem::take(&mut self.scratch.predicted);
         predicted.clear();
-        predicted.extend((0..x.len()).map(|i| x[i] + (v[i] + dv_guess[i]) * h));
+        let scheme = &step.scheme;
+        predicted.extend((0..x.len()).map(|i| scheme.end(i, &x[i], &(v[i] + dv_guess[i]))));
         self.set_poses(step.time, h);
         self.crossings(x, &predicted, step.pinned, true, |_, _, _| true);
         self.scratch.predicted = predicted;
@@ -121,7 +124,15 @@ impl CollisionStage<'_> {
             if step.pinned[i] {
                 continue;
             }
-            contact::constrain(i, &group, &x[i], &v[i], h, self.obstacles.max_push, c);
+            contact::constrain(
+                i,
+                &group,
+                &x[i],
+                &v[i],
+                &step.scheme,
+                self.obstacles.max_push,
+                c,
+            );
             for (ct, plan) in &group {
                 let mu = self.obstacles.colliders()[ct.obstacle as usize].friction;
                 c.impulse[i] += contact::kinetic_impulse(ct, plan, mu, step.mass[i], h);
@@ -368,6 +379,7 @@ mod tests {
             pinned: &[false],
             time: 0.0,
             h,
+            scheme: Scheme::euler(h),
         };
         let obstacles = Obstacles::new(&[sphere([0.0, 0.0, 200.0])], 0.1)
             .expect("builds")

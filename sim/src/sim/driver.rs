@@ -12,7 +12,7 @@ use super::workspace::Workspace;
 use super::world::World;
 use crate::math::Real;
 use crate::solver::SolveStatus;
-use crate::spec::TimeStepping;
+use crate::spec::{IntegratorKind, TimeStepping};
 
 /// Largest edge stretch an adaptive step may reach before it is redone at
 /// half the size; beyond 10 % a fabric is far outside its linear range.
@@ -26,9 +26,12 @@ const SUBDIVIDE_STRETCH: Real = 1.02;
 const SUBDIVIDE_JUMP: Real = 0.005;
 /// Halvings of one fixed step at most (a step becomes at most 16 steps).
 const SUBDIVIDE_MAX_DEPTH: u32 = 4;
-/// Accepted steps in a row before the adaptive controller tries a step
-/// twice as large.
-const ADAPTIVE_GROW_AFTER: u32 = 8;
+/// Accepted steps in a row, each with room for a step twice as large,
+/// before the adaptive controller takes one.
+const ADAPTIVE_GROW_AFTER: u32 = 4;
+/// The room: a doubled step's predicted error at most this share of its
+/// allowance (the estimate is itself good to tens of percent).
+const ADAPTIVE_GROW_MARGIN: Real = 0.5;
 
 /// The steps of one frame, summed.
 #[derive(Debug, Default)]
@@ -43,6 +46,10 @@ pub struct FrameAccumulator {
     pub unconverged: usize,
     /// Fixed steps redone as two halves.
     pub subdivided: usize,
+    /// Adaptive steps rejected and redone at half size.
+    pub rejected: usize,
+    /// The steps' local error estimates summed, metres.
+    pub error: Real,
     /// Stage times.
     pub times: StageTimes,
     /// The last step's size.
@@ -57,6 +64,7 @@ impl FrameAccumulator {
         self.unconverged += usize::from(r.solve.status != SolveStatus::Converged);
         self.times.add(&r.times);
         self.last_h = h;
+        self.error += r.error;
     }
 }
 
@@ -85,8 +93,8 @@ impl Driver<'_> {
                     self.guarded_step(h, 0, &mut acc)?;
                 }
             }
-            TimeStepping::Adaptive { max_level } => {
-                self.adaptive(control, max_level, &mut acc)?;
+            TimeStepping::Adaptive { max_level, error } => {
+                self.adaptive(control, max_level, error, &mut acc)?;
             }
         }
         Ok(acc)
@@ -122,29 +130,45 @@ impl Driver<'_> {
         }
     }
 
-    /// Steps of `frame_dt / 2^level` until the frame is covered: a step is
-    /// redone at half size when its solve fails, it produces non-finite
-    /// numbers, or it stretches an edge past [`ADAPTIVE_MAX_STRETCH`];
-    /// after [`ADAPTIVE_GROW_AFTER`] good steps the size doubles where that
-    /// stays aligned with the frame.
+    /// Steps of `frame_dt / 2^level` until the frame is covered, the level
+    /// set by each step's embedded error estimate (`StepReport::error`):
+    /// a step may add its share `error · h / frame_dt` of the frame's
+    /// error, so the frame's local errors sum to at most `error`.
+    ///
+    /// A step is redone at half size when its estimate exceeds its share,
+    /// its solve fails, it produces non-finite numbers, or it stretches an
+    /// edge past [`ADAPTIVE_MAX_STRETCH`] (the fail-safes). After
+    /// [`ADAPTIVE_GROW_AFTER`] steps in a row whose estimate says a step
+    /// twice as large would pass with room to spare (the estimate scales
+    /// as `h^q`, `q` the local order: 2 for backward Euler, 3 for BDF2,
+    /// against a share that scales as `h`), the size doubles where that
+    /// stays aligned with the frame. Power-of-two steps keep frames on
+    /// steps and BDF2's step ratios at 1/2, 1 or 2, inside its stable range.
     fn adaptive(
         &mut self,
         control: &Control<'_>,
         max_level: u32,
+        error: Real,
         acc: &mut FrameAccumulator,
     ) -> Result<(), SimError> {
         let frame_dt = self.world.scene.frame_dt();
+        let order: i32 = match self.world.scene.solver.integrator {
+            IntegratorKind::Euler => 2,
+            IntegratorKind::Bdf2 => 3,
+        };
         // The frame in units of the finest step.
         let units: u64 = 1 << max_level;
         let mut done: u64 = 0;
         while done < units {
             self.check_cancel(control)?;
             let h = frame_dt / (1u64 << self.run.level) as Real;
+            let share = error * h / frame_dt;
             self.ws.save(0, self.run);
             let result = step(self.world, self.run, self.ws, h);
             let ok = match &result {
                 Ok(r) => {
                     r.solve.status == SolveStatus::Converged
+                        && r.error <= share
                         && self.world.model.stretch.max_ratio(&self.run.state.x)
                             <= ADAPTIVE_MAX_STRETCH
                 }
@@ -154,13 +178,19 @@ impl Driver<'_> {
                 self.ws.restore(0, self.run);
                 self.run.level += 1;
                 self.run.easy_steps = 0;
+                acc.rejected += 1;
                 continue;
             }
             let r = result?;
             acc.add(&r, h);
             let level = self.run.level;
             done += 1 << (max_level - level);
-            self.run.easy_steps += 1;
+            let doubled = r.error * Real::powi(2.0, order);
+            if doubled <= ADAPTIVE_GROW_MARGIN * 2.0 * share {
+                self.run.easy_steps += 1;
+            } else {
+                self.run.easy_steps = 0;
+            }
             let coarser = 1u64 << (max_level - level + 1);
             if self.run.easy_steps >= ADAPTIVE_GROW_AFTER
                 && level > 0

@@ -5,7 +5,8 @@
 
 use crate::collision::Trajectory;
 use crate::math::{Real, Vec3};
-use crate::solver::{ClothState, Constraints};
+
+use crate::solver::{ClothState, Constraints, Scheme};
 use crate::spec::ClothScene;
 
 /// The pins of a scene.
@@ -75,14 +76,20 @@ impl Pins {
             .collect()
     }
 
-    /// Clears `c` and fills the constraints of a step from `state` to
-    /// `state.time + h`: a fixed pin holds its anchor (`dv = -v`, `y` the
-    /// drift back); a moving pin ends the step exactly where its motion
-    /// puts the anchor, at the motion's mean velocity over the step (`z`
-    /// and `y` of eq. [20]).
-    pub fn constrain(&self, state: &ClothState, anchors: &[Vec3], h: Real, c: &mut Constraints) {
+    /// Clears `c` and fills the constraints of a step of `scheme` from
+    /// `state`: a fixed pin holds its anchor (velocity 0, `y` the drift
+    /// back); a moving pin ends the step exactly where its motion puts the
+    /// anchor, at the motion's mean velocity over the step (`z` and `y` of
+    /// eq. [20], written through the scheme's end of step).
+    pub fn constrain(
+        &self,
+        state: &ClothState,
+        anchors: &[Vec3],
+        scheme: &Scheme<'_>,
+        c: &mut Constraints,
+    ) {
         c.clear();
-        let time = state.time;
+        let (time, h) = (state.time, scheme.h);
         // Each group's pose at both ends of the step, once per group.
         let poses: Vec<_> = self
             .motions
@@ -92,13 +99,13 @@ impl Pins {
         for ((&i, anchor), group) in self.indices.iter().zip(anchors).zip(&self.group) {
             let (x, v) = (state.x[i], state.v[i]);
             match group {
-                None => c.fix(i, -v, anchor - x),
+                None => c.fix(i, -v, anchor - scheme.end(i, &x, &Vec3::zeros())),
                 Some(g) => {
                     let (start, end) = &poses[*g];
                     let p0 = start * nalgebra::Point3::from(*anchor);
                     let p1 = end * nalgebra::Point3::from(*anchor);
                     let target = (p1 - p0) / h;
-                    c.fix(i, target - v, p1.coords - (x + h * target));
+                    c.fix(i, target - v, p1.coords - scheme.end(i, &x, &target));
                 }
             }
         }

@@ -20,7 +20,7 @@ pub enum Stage {
     Precondition,
     /// The modified PCG.
     Solve,
-    /// `v += dv`, `x += h v + y`, finiteness.
+    /// `v += dv`, `x += p + h' v + y`, finiteness.
     Update,
     /// The path taken is tested; the step is accepted (contacts released,
     /// friction switched) or redone with the new contacts.

@@ -37,6 +37,16 @@ pub struct RunState {
     pub(crate) level: u32,
     /// ...and the run of easy steps at it.
     pub(crate) easy_steps: u32,
+    /// The last accepted step's displacement of each particle...
+    #[serde(default)]
+    pub(crate) last_moved: Vec<Vec3>,
+    /// ...its velocity change...
+    #[serde(default)]
+    pub(crate) last_dv: Vec<Vec3>,
+    /// ...and its size (0 before the first step, or after the cloth was
+    /// replaced): BDF2's memory.
+    #[serde(default)]
+    pub(crate) last_h: Real,
 }
 
 /// A run's state taken between frames, to continue later.
@@ -55,6 +65,9 @@ impl Clone for RunState {
             warm_start: self.warm_start.clone(),
             level: self.level,
             easy_steps: self.easy_steps,
+            last_moved: self.last_moved.clone(),
+            last_dv: self.last_dv.clone(),
+            last_h: self.last_h,
         }
     }
 
@@ -67,6 +80,9 @@ impl Clone for RunState {
         self.warm_start.clone_from(&source.warm_start);
         self.level = source.level;
         self.easy_steps = source.easy_steps;
+        self.last_moved.clone_from(&source.last_moved);
+        self.last_dv.clone_from(&source.last_dv);
+        self.last_h = source.last_h;
     }
 }
 
@@ -77,7 +93,7 @@ impl RunState {
         let level = match world.scene.solver.stepping {
             TimeStepping::Fixed { .. } => 0,
             // Start near 1/240 s and let the controller find its way.
-            TimeStepping::Adaptive { max_level } => {
+            TimeStepping::Adaptive { max_level, .. } => {
                 ((world.scene.frame_dt() * 240.0).log2().ceil().max(0.0) as u32).min(max_level)
             }
         };
@@ -94,6 +110,9 @@ impl RunState {
             warm_start: vec![Vec3::zeros(); n],
             level,
             easy_steps: 0,
+            last_moved: vec![Vec3::zeros(); n],
+            last_dv: vec![Vec3::zeros(); n],
+            last_h: 0.0,
         }
     }
 
@@ -121,6 +140,7 @@ impl RunState {
         self.state = state;
         self.warm_start.fill(Vec3::zeros());
         self.contacts.clear();
+        self.last_h = 0.0;
     }
 
     /// Checks that this state can continue a run of `world`: the same
@@ -151,8 +171,19 @@ impl RunState {
         {
             return bad("holds a contact with an unknown particle or obstacle".into());
         }
+        let history = self.last_h == 0.0
+            || (self.last_moved.len() == n && self.last_dv.len() == n && self.last_h > 0.0);
+        if !history {
+            return bad("holds a last step of another size".into());
+        }
         let finite = |v: &[Vec3]| v.iter().all(is_finite);
-        if !(finite(&self.state.x) && finite(&self.state.v) && finite(&self.warm_start)) {
+        if !(finite(&self.state.x)
+            && finite(&self.state.v)
+            && finite(&self.warm_start)
+            && finite(&self.last_moved)
+            && finite(&self.last_dv)
+            && self.last_h.is_finite())
+        {
             return bad("holds non-finite numbers".into());
         }
         Ok(())

@@ -22,6 +22,15 @@ pub struct FrameStats {
     pub unconverged_solves: usize,
     /// Fixed steps redone as two halves because they overstretched.
     pub subdivided_steps: usize,
+    /// Adaptive steps rejected (error estimate over its share, failed
+    /// solve, overstretch) and redone at half size.
+    #[serde(default)]
+    pub rejected_steps: usize,
+    /// The position error the frame's steps added by their embedded
+    /// estimates (RMS over free particles, summed over steps), metres;
+    /// `solver.error` bounds it under `dt: "adaptive"`.
+    #[serde(default)]
+    pub local_error: f64,
     /// Particles in contact at the end of the frame.
     pub contacts: usize,
     /// Contacts made during the frame.
@@ -70,6 +79,11 @@ pub struct RunStats {
     pub unconverged_solves: usize,
     /// Fixed steps redone as two halves because they overstretched.
     pub subdivided_steps: usize,
+    /// Adaptive steps rejected and redone at half size.
+    pub rejected_steps: usize,
+    /// The largest of the frames' estimated added position errors
+    /// (`per_frame[].local_error`), metres.
+    pub local_error_max: f64,
     /// Collision stage wall time, seconds.
     pub collision_seconds: f64,
     /// `collision_seconds` / time in steps.
@@ -123,6 +137,8 @@ impl StatsRecorder {
                 cg_iterations_max: 0,
                 unconverged_solves: 0,
                 subdivided_steps: 0,
+                rejected_steps: 0,
+                local_error_max: 0.0,
                 collision_seconds: 0.0,
                 collision_fraction: 0.0,
                 contacts_max: 0,
@@ -152,6 +168,8 @@ impl StatsRecorder {
         s.cg_iterations_max = s.cg_iterations_max.max(f.cg_iterations_max);
         s.unconverged_solves += f.unconverged_solves;
         s.subdivided_steps += f.subdivided_steps;
+        s.rejected_steps += f.rejected_steps;
+        s.local_error_max = s.local_error_max.max(f.local_error);
         s.collision_seconds += f.collision_seconds;
         s.contacts_max = s.contacts_max.max(f.contacts);
         s.contacts_new += f.new_contacts;

@@ -7,7 +7,7 @@
 //! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]) |
 //! | precondition | the warm start's residual; the preconditioner from `A` unless that already converged |
 //! | solve | the modified PCG (filtered residual) |
-//! | update | `v += dv`, `x += h v + y`, finiteness |
+//! | update | `v += dv`, `x += p + h' v + y`, finiteness |
 //! | collision resolve | the path taken: accept (release, friction) or redo with new contacts |
 //!
 //! A redo (at most [`MAX_REDOS`] per step) starts again from the
@@ -22,7 +22,8 @@ use super::workspace::Workspace;
 use super::world::World;
 use crate::collision::{CollisionStage, StepFrame, Verdict};
 use crate::math::Real;
-use crate::solver::{self, SolveReport};
+use crate::solver::{self, Scheme, SolveReport};
+use crate::spec::IntegratorKind;
 
 /// Redos of one step's solve when particles cross a surface mid-step;
 /// crossings left after the last are handled by the next step.
@@ -35,6 +36,9 @@ pub struct StepReport {
     pub solve: SolveReport,
     /// Wall time of each stage.
     pub times: StageTimes,
+    /// The embedded estimate of the step's local position error, RMS
+    /// over the unconstrained particles, metres (`solver::local_error`).
+    pub error: Real,
 }
 
 /// Advances `run` by one step of `h`.
@@ -46,11 +50,16 @@ pub fn step(
 ) -> Result<StepReport, SimError> {
     let _span = tracing::trace_span!("step", step = run.steps).entered();
     let physics = world.physics();
+    let scheme = match world.scene.solver.integrator {
+        IntegratorKind::Euler => Scheme::euler(h),
+        IntegratorKind::Bdf2 => Scheme::bdf2(h, run.last_h, &run.last_moved, &run.last_dv),
+    };
     let frame = StepFrame {
         mass: &world.grid.mass,
         pinned: world.pins.mask(),
         time: run.state.time,
         h,
+        scheme,
     };
     if world.obstacles.is_some() {
         ws.step_start.clone_from(&run.state);
@@ -62,7 +71,7 @@ pub fn step(
         clock.run(Stage::Constrain, || {
             world
                 .pins
-                .constrain(&run.state, &run.anchors, h, &mut ws.constraints)
+                .constrain(&run.state, &run.anchors, &scheme, &mut ws.constraints)
         });
         if let Some(obstacles) = &world.obstacles {
             clock.run(Stage::CollisionPrepare, || {
@@ -82,18 +91,24 @@ pub fn step(
         }
         clock.run(Stage::Assemble, || {
             ws.integrator
-                .assemble(&physics, &run.state, &ws.constraints, h)
+                .assemble(&physics, &run.state, &ws.constraints, &scheme)
         });
         clock.run(Stage::Precondition, || {
             ws.integrator
-                .precondition(&physics, &ws.constraints, h, &mut run.warm_start)
+                .precondition(&physics, &ws.constraints, &scheme, &mut run.warm_start)
         });
         let mut solve = clock.run(Stage::Solve, || {
             ws.integrator.solve(&ws.constraints, &mut run.warm_start)
         });
         clock
             .run(Stage::Update, || {
-                solver::update(&mut run.state, &run.warm_start, &ws.constraints, h)
+                solver::update(
+                    &mut run.state,
+                    &run.warm_start,
+                    &ws.constraints,
+                    &scheme,
+                    &mut ws.moved,
+                )
             })
             .map_err(|e| SimError::NonFinite {
                 step: run.steps,
@@ -126,12 +141,25 @@ pub fn step(
         };
         match verdict {
             Verdict::Accept => {
+                let error = solver::local_error(
+                    &scheme,
+                    &run.state.v,
+                    &run.warm_start,
+                    &ws.moved,
+                    &ws.constraints,
+                );
+                // BDF2's memory: this step's motion, before the warm start
+                // is corrected below.
+                run.last_moved.clone_from(&ws.moved);
+                run.last_dv.clone_from(&run.warm_start);
+                run.last_h = h;
                 for &(i, dv) in ws.collision.released() {
                     run.warm_start[i as usize] += dv;
                 }
                 run.steps += 1;
                 return Ok(StepReport {
                     solve,
+                    error,
                     times: clock.times(),
                 });
             }

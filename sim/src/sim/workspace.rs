@@ -21,6 +21,8 @@ pub struct Workspace {
     /// States saved before steps that may be rejected, one per nesting
     /// depth of subdivision.
     pub rollback: Vec<RunState>,
+    /// Each particle's displacement in the step being taken.
+    pub moved: Vec<crate::math::Vec3>,
 }
 
 impl Workspace {
@@ -35,6 +37,7 @@ impl Workspace {
             ),
             step_start: state.state.clone(),
             rollback: Vec::new(),
+            moved: vec![crate::math::Vec3::zeros(); n],
         }
     }
 

@@ -1,8 +1,10 @@
-//! Assembly of the linear system of one implicit Euler step with position
-//! corrections, method.md §2 eq. [20]:
+//! Assembly of the linear system of one step with position corrections,
+//! method.md §2 eq. [20], in the variables of the step's scheme
+//! (`solver::Scheme`: `h' = γ h`, the carried motion `p` and velocity
+//! change `q`; backward Euler has `h' = h`, `p = q = 0`):
 //!
 //! ```text
-//! A = M - h D - h² K,      b = h (f0 + K (h v0 + y))
+//! A = M - h' D - h'² K,      b = M q + h' (f0 + K (h' v0 + p + y))
 //! ```
 //!
 //! with `K = ∂f/∂x`, `D = ∂f/∂v` in their solver (symmetric, `-K` and `-D`
@@ -21,6 +23,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::bsr::BlockCsr;
+use super::scheme::Scheme;
 use crate::cloth::{Force, ForceModel, Sink};
 use crate::math::{Mat3, Real, Vec3};
 use crate::spec::JacobianMode;
@@ -39,6 +42,26 @@ pub struct System {
 }
 
 const TERMS: usize = 5;
+
+/// The force terms, in the order of the slot tables and bands.
+#[derive(Clone, Copy)]
+enum Term {
+    Stretch,
+    Damping,
+    Bend,
+    Shear,
+    Drag,
+}
+
+impl Term {
+    const ALL: [Term; TERMS] = [
+        Term::Stretch,
+        Term::Damping,
+        Term::Bend,
+        Term::Shear,
+        Term::Drag,
+    ];
+}
 
 /// Fewest rows worth a band of their own: a particle's elements cost about
 /// a microsecond, so a few hundred rows outweigh handing the band to
@@ -60,8 +83,12 @@ struct Band {
 /// Inputs of one assembly.
 #[derive(Debug, Clone, Copy)]
 pub struct AssemblyInput<'a> {
-    /// Positions at the start of the step.
+    /// Where the forces are linearised: the positions at the start of the
+    /// step, or (with `predicted`) the scheme's prediction of its end.
     pub x: &'a [Vec3],
+    /// `x` is the prediction `x0 + p + h' v0` (BDF2): the displacement to
+    /// the step's end is then `h' dv + y` alone.
+    pub predicted: bool,
     /// Velocities at the start of the step.
     pub v: &'a [Vec3],
     /// Position corrections `y`.
@@ -70,8 +97,8 @@ pub struct AssemblyInput<'a> {
     pub mass: &'a [Real],
     /// Gravitational acceleration.
     pub gravity: Vec3,
-    /// Step size.
-    pub h: Real,
+    /// The step's scheme.
+    pub scheme: Scheme<'a>,
 }
 
 fn slot_table<F: Force>(force: &F, a: &BlockCsr) -> Vec<u32> {
@@ -177,6 +204,30 @@ impl System {
     }
 }
 
+/// Calls `visit(term, add)` for every force term and every element of
+/// `band`, in order; `add(sink)` adds the element to a sink.
+fn each_element<S: Sink>(
+    model: &ForceModel,
+    band: &Band,
+    x: &[Vec3],
+    v: &[Vec3],
+    mut visit: impl FnMut(usize, &dyn Fn(&mut S)),
+) {
+    let mode = JacobianMode::Solver;
+    for (t, elements) in band.elements.iter().enumerate() {
+        for &e in elements {
+            let e = e as usize;
+            match Term::ALL[t] {
+                Term::Stretch => visit(t, &|s| model.stretch.add_element(e, x, v, mode, s)),
+                Term::Damping => visit(t, &|s| model.damping.add_element(e, x, v, mode, s)),
+                Term::Bend => visit(t, &|s| model.bend.add_element(e, x, v, mode, s)),
+                Term::Shear => visit(t, &|s| model.shear.add_element(e, x, v, mode, s)),
+                Term::Drag => visit(t, &|s| model.drag.add_element(e, x, v, mode, s)),
+            }
+        }
+    }
+}
+
 /// One band: mass and gravity on its rows, then every force's elements
 /// touching it, in element order.
 fn assemble_band(
@@ -187,12 +238,13 @@ fn assemble_band(
     values: &mut [Mat3],
     b: &mut [Vec3],
 ) {
-    let h = input.h;
+    let scheme = &input.scheme;
+    let h = scheme.h_eff();
     let base = band.slots.start;
     values.fill(Mat3::zeros());
     for (k, row) in band.rows.clone().enumerate() {
         let m = input.mass[row];
-        b[k] = input.gravity * (h * m);
+        b[k] = (input.gravity * h + scheme.velocity_carry(row)) * m;
         values[band.diag[k] - base] = Mat3::identity() * m;
     }
     let mut sink = AssemblySink {
@@ -202,22 +254,15 @@ fn assemble_band(
         base,
         v: input.v,
         y: input.y,
+        scheme: &input.scheme,
+        predicted: input.predicted,
         h,
         slots: &[],
     };
-    let mode = JacobianMode::Solver;
-    let (x, v) = (input.x, input.v);
-    let mut run = |t: usize, f: &dyn Fn(usize, &mut AssemblySink<'_>)| {
+    each_element(model, band, input.x, input.v, |t, add| {
         sink.slots = &slots[t];
-        for &e in &band.elements[t] {
-            f(e as usize, &mut sink);
-        }
-    };
-    run(0, &|e, s| model.stretch.add_element(e, x, v, mode, s));
-    run(1, &|e, s| model.damping.add_element(e, x, v, mode, s));
-    run(2, &|e, s| model.bend.add_element(e, x, v, mode, s));
-    run(3, &|e, s| model.shear.add_element(e, x, v, mode, s));
-    run(4, &|e, s| model.drag.add_element(e, x, v, mode, s));
+        add(&mut sink);
+    });
 }
 
 /// Writes element blocks into one band of `A` and `b` through precomputed
@@ -230,6 +275,9 @@ struct AssemblySink<'a> {
     base: usize,
     v: &'a [Vec3],
     y: &'a [Vec3],
+    scheme: &'a Scheme<'a>,
+    predicted: bool,
+    /// `h'`.
     h: Real,
     slots: &'a [u32],
 }
@@ -247,9 +295,16 @@ impl Sink for AssemblySink<'_> {
         let h = self.h;
         let h2 = h * h;
         let slots = &self.slots[element * N * N..(element + 1) * N * N];
-        // The displacement `h v0 + y` that K multiplies in b, once per
-        // particle of the element.
-        let w: [Vec3; N] = std::array::from_fn(|q| self.v[idx[q]] * h + self.y[idx[q]]);
+        // The displacement `h' v0 + p + y` that K multiplies in b, once
+        // per particle of the element.
+        let w: [Vec3; N] = std::array::from_fn(|q| {
+            let i = idx[q];
+            if self.predicted {
+                self.y[i]
+            } else {
+                self.v[i] * h + self.scheme.carry(i) + self.y[i]
+            }
+        });
         for a in 0..N {
             if !self.rows.contains(&idx[a]) {
                 continue;

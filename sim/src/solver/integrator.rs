@@ -6,7 +6,10 @@
 //! 2. [`Integrator::precondition`]: rebuild the preconditioner;
 //! 3. [`Integrator::solve`]: the modified PCG under the filters `S` and
 //!    targets `z`;
-//! 4. [`update`]: `v += dv`, `x += h v + y`, and check both are finite.
+//! 4. [`update`]: `v += dv`, `x += p + h' v + y`, and check both are
+//!    finite.
+//!
+//! Every stage takes the step's [`Scheme`] (backward Euler or BDF2).
 //!
 //! Constraints are an input: the caller (pins, and the collision stage)
 //! fills them before the step and may read the constraint impulses after
@@ -19,6 +22,7 @@ use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
 use super::multigrid::Multigrid;
 use super::precond::{BlockJacobi, Jacobi, Preconditioner};
+use super::scheme::Scheme;
 use super::state::ClothState;
 use crate::cloth::{ForceModel, Grid};
 use crate::math::{Real, Vec3, is_finite};
@@ -54,6 +58,8 @@ pub struct Integrator {
     ws: MpcgWorkspace,
     options: MpcgOptions,
     warm_start: bool,
+    /// BDF2's linearisation point, the prediction `x0 + p + h' v0`.
+    predicted: Vec<Vec3>,
 }
 
 impl Integrator {
@@ -89,6 +95,7 @@ impl Integrator {
             ws: MpcgWorkspace::default(),
             options,
             warm_start,
+            predicted: vec![Vec3::zeros(); n],
         }
     }
 
@@ -106,28 +113,43 @@ impl Integrator {
         ad - self.system.b[i]
     }
 
-    /// Stage 1: writes `A` and `b` for a step of `h` from `state`
-    /// (eq. [20]), with the constraints' corrections `y` and impulses.
+    /// Stage 1: writes `A` and `b` for a step of `scheme` from `state`
+    /// (eq. [20] in the scheme's variables), with the constraints'
+    /// corrections `y` and impulses. An impulse `J` over the step is a
+    /// force `J / h`, which the scheme weighs by `h'`: it enters as `γ J`.
     pub fn assemble(
         &mut self,
         physics: &Physics<'_>,
         state: &ClothState,
         constraints: &Constraints,
-        h: Real,
+        scheme: &Scheme<'_>,
     ) {
+        let predicted = scheme.is_two_step();
+        if predicted {
+            let h = scheme.h_eff();
+            let (x, v) = (&state.x, &state.v);
+            crate::parallel::for_chunks(&mut self.predicted, |start, out| {
+                for (k, p) in out.iter_mut().enumerate() {
+                    let i = start + k;
+                    *p = x[i] + scheme.carry(i) + v[i] * h;
+                }
+            });
+        }
         self.system.assemble(
             physics.model,
             &AssemblyInput {
-                x: &state.x,
+                x: if predicted { &self.predicted } else { &state.x },
+                predicted,
                 v: &state.v,
                 y: &constraints.y,
                 mass: physics.mass,
                 gravity: physics.gravity,
-                h,
+                scheme: *scheme,
             },
         );
+        let gamma = scheme.gamma;
         for (b, j) in self.system.b.iter_mut().zip(&constraints.impulse) {
-            *b += j;
+            *b += j * gamma;
         }
     }
 
@@ -139,15 +161,16 @@ impl Integrator {
         &mut self,
         physics: &Physics<'_>,
         constraints: &Constraints,
-        h: Real,
+        scheme: &Scheme<'_>,
         dv: &mut [Vec3],
     ) {
+        let h = scheme.h_eff();
         if !self.warm_start {
             dv.fill(Vec3::zeros());
         }
         // NOTE: at rest b -> 0, and a tolerance relative to |S b| alone
         // would demand ever more digits of nothing; the gravity impulse
-        // h M g sets the scale of a step's velocity change instead.
+        // h' M g sets the scale of a step's velocity change instead.
         let sb = mpcg::filtered_norm(&self.system.b, &constraints.filter);
         let gravity_impulse = crate::parallel::sum(physics.mass.len(), |r| {
             physics.mass[r.clone()]
@@ -188,14 +211,16 @@ fn problem<'a>(system: &'a System, constraints: &'a Constraints) -> Problem<'a> 
     }
 }
 
-/// Stage 4: `v += dv`, `x += h v + y`, `t += h`; the first non-finite
-/// velocity change or position is an error (the state is then partly
-/// updated and must be discarded).
+/// Stage 4: `v += dv`, `x += p + h' v + y`, `t += h` for a step of
+/// `scheme`, leaving each particle's displacement in `moved` (the next
+/// BDF2 step's memory); the first non-finite velocity change or position
+/// is an error (the state is then partly updated and must be discarded).
 pub fn update(
     state: &mut ClothState,
     dv: &[Vec3],
     constraints: &Constraints,
-    h: Real,
+    scheme: &Scheme<'_>,
+    moved: &mut [Vec3],
 ) -> Result<(), StepError> {
     if let Some(particle) = dv.iter().position(|d| !is_finite(d)) {
         return Err(StepError {
@@ -204,13 +229,20 @@ pub fn update(
         });
     }
     let y = &constraints.y;
-    crate::parallel::for_chunks2(&mut state.x, &mut state.v, |start, x, v| {
-        for k in 0..x.len() {
-            v[k] += dv[start + k];
-            x[k] += v[k] * h + y[start + k];
+    let h = scheme.h_eff();
+    crate::parallel::for_chunks2(&mut state.v, moved, |start, v, m| {
+        for k in 0..v.len() {
+            let i = start + k;
+            v[k] += dv[i];
+            m[k] = scheme.carry(i) + v[k] * h + y[i];
         }
     });
-    state.time += h;
+    crate::parallel::for_chunks(&mut state.x, |start, x| {
+        for (k, x) in x.iter_mut().enumerate() {
+            *x += moved[start + k];
+        }
+    });
+    state.time += scheme.h;
     if let Some(particle) = state.x.iter().position(|x| !is_finite(x)) {
         return Err(StepError {
             particle,

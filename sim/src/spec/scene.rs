@@ -2,7 +2,7 @@
 
 use super::material::MaterialParams;
 use super::obstacle::Obstacle;
-use super::types::PreconditionerKind;
+use super::types::{IntegratorKind, PreconditionerKind};
 use crate::math::{Real, Vec3};
 
 /// A scene ready to simulate; only [`super::Spec::validate`] makes one.
@@ -70,6 +70,8 @@ pub struct SolverScene {
     pub max_iterations: usize,
     /// The preconditioner.
     pub preconditioner: PreconditionerKind,
+    /// The time integrator.
+    pub integrator: IntegratorKind,
     /// Start each solve from the previous step's velocity change.
     pub warm_start: bool,
     /// Run the collision stage.
@@ -90,5 +92,7 @@ pub enum TimeStepping {
     Adaptive {
         /// Deepest subdivision before the controller gives up.
         max_level: u32,
+        /// The position error a frame may add, metres.
+        error: Real,
     },
 }

@@ -175,6 +175,14 @@ pub struct SolverSpec {
     /// Which preconditioner the PCG uses.
     #[serde(default)]
     pub preconditioner: PreconditionerKind,
+    /// The time integrator: `"euler"` (backward Euler) or `"bdf2"`.
+    #[serde(default)]
+    pub integrator: IntegratorKind,
+    /// With `dt: "adaptive"`: the position error one frame may add,
+    /// metres (RMS over the cloth's free particles; default 1 mm). Each
+    /// step's embedded estimate must stay within its share of it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<f64>,
     /// Start each solve from the previous step's velocity change.
     #[serde(default = "yes")]
     pub warm_start: bool,
@@ -190,6 +198,8 @@ impl Default for SolverSpec {
             tolerance: default_tolerance(),
             max_iterations: default_max_iterations(),
             preconditioner: PreconditionerKind::default(),
+            integrator: IntegratorKind::default(),
+            error: None,
             warm_start: true,
             collision: true,
         }
@@ -258,6 +268,45 @@ impl std::str::FromStr for PreconditionerKind {
                     names.join(", ")
                 )
             })
+    }
+}
+
+/// Time integrators (method.md §2, §6).
+#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IntegratorKind {
+    /// Backward (implicit) Euler: first order, damps slow motion; the
+    /// default while BDF2 still overstretches in two stress cases
+    /// (docs/benchmarks.md).
+    #[default]
+    Euler,
+    /// The two-step backward differentiation formula (Choi & Ko 2002):
+    /// second order, the same system to solve.
+    Bdf2,
+}
+
+impl IntegratorKind {
+    /// Every integrator.
+    pub const ALL: [IntegratorKind; 2] = [IntegratorKind::Euler, IntegratorKind::Bdf2];
+
+    /// The name in specs.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Euler => "euler",
+            IntegratorKind::Bdf2 => "bdf2",
+        }
+    }
+}
+
+impl std::str::FromStr for IntegratorKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown integrator {s:?}; expected euler or bdf2"))
     }
 }
 

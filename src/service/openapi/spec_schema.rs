@@ -113,6 +113,7 @@ fn rules(max_duration: f64) -> Vec<(&'static str, &'static str, Value)> {
             json!({"minItems": 4, "maxItems": 4}),
         ),
         ("SolverSpec", "tolerance", positive(0.5)),
+        ("SolverSpec", "error", positive(1.0)),
         (
             "SolverSpec",
             "max_iterations",

@@ -255,11 +255,12 @@ mod tests {
             &model,
             &AssemblyInput {
                 x: &x,
+                predicted: false,
                 v: &v,
                 y: &y,
                 mass: &grid.mass,
                 gravity: Vec3::new(0.0, 0.0, -9.81),
-                h: 1.0 / 60.0,
+                scheme: crate::solver::Scheme::euler(1.0 / 60.0),
             },
         );
         let offsets = GridMatrix::offsets_of(&sys.a, grid.nu);

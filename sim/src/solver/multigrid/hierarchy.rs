@@ -239,11 +239,12 @@ mod tests {
             &model,
             &AssemblyInput {
                 x: &x,
+                predicted: false,
                 v: &v,
                 y: &y,
                 mass: &grid.mass,
                 gravity: Vec3::new(0.0, 0.0, -9.81),
-                h: 1.0 / 240.0,
+                scheme: crate::solver::Scheme::euler(1.0 / 240.0),
             },
         );
         let mut c = Constraints::free(grid.len());

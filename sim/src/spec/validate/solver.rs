@@ -31,6 +31,10 @@ pub(super) fn validate_timing(spec: &Spec, limits: &Limits, c: &mut Check) -> Op
     Some(frames)
 }
 
+/// The adaptive controller's position error per frame when the spec
+/// names none, metres.
+pub const DEFAULT_ERROR: f64 = 1e-3;
+
 pub(super) fn validate_solver(
     spec: &Spec,
     limits: &Limits,
@@ -44,10 +48,19 @@ pub(super) fn validate_solver(
         ok = false;
     }
     let stepping = match s.dt {
-        TimeStep::Adaptive => Some(TimeStepping::Adaptive {
-            max_level: ADAPTIVE_MAX_LEVEL,
-        }),
+        TimeStep::Adaptive => {
+            let error = s.error.unwrap_or(DEFAULT_ERROR);
+            c.range("solver.error", error, true, 1.0)
+                .then_some(TimeStepping::Adaptive {
+                    max_level: ADAPTIVE_MAX_LEVEL,
+                    error,
+                })
+        }
         TimeStep::Fixed(dt) => {
+            if s.error.is_some() {
+                c.fail("solver.error", "needs solver.dt \"adaptive\"");
+                ok = false;
+            }
             if !c.range("solver.dt", dt, true, 1.0) {
                 None
             } else if dt < 1e-7 {
@@ -78,6 +91,7 @@ pub(super) fn validate_solver(
         tolerance: s.tolerance,
         max_iterations: s.max_iterations as usize,
         preconditioner: s.preconditioner,
+        integrator: s.integrator,
         warm_start: s.warm_start,
         collision: s.collision,
     })

@@ -123,7 +123,10 @@ mod tests {
     pub(crate) fn row(sweep: Sweep, dt: f64, wall: f64, err: f64) -> Row {
         Row {
             sweep,
+            integrator: drapery_sim::spec::IntegratorKind::Euler,
             dt,
+            error_target: None,
+            error_estimate: 0.0,
             tolerance: 1e-10,
             steps: 1,
             wall_seconds: wall,

@@ -9,7 +9,14 @@
 //!   at the tight tolerance (the time discretisation's error, plus what
 //!   contact events add), and the CG tolerance at a fixed step (against
 //!   the tight run at that step, the solver's error alone:
-//!   `solver_error_rms`; against the reference, the total).
+//!   `solver_error_rms`; against the reference, the total); the time-step
+//!   sweep runs once per integrator (`--integrators`, Euler and BDF2), a
+//!   front each;
+//! - the **adaptive** sweep: `dt: "adaptive"` at each `--errors` value
+//!   per integrator, its cost and its calibration (the error asked per
+//!   frame, what the run's estimate reported, what it achieved).
+//!
+//! The reference is always BDF2 (the more accurate at any step).
 //!
 //! Errors are position differences over the frames both runs have (frame 0
 //! excluded: it is the same initial state), RMS over particles and frames
@@ -31,14 +38,14 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use drapery_sim::math::Vec3;
-use drapery_sim::spec::{Spec, TimeStep};
+use drapery_sim::spec::{IntegratorKind, Spec, TimeStep};
 
 use super::runner;
 use crate::cli::PrecisionArgs;
 use analysis::{mark_pareto, position_error};
 use reference::Reference;
 use row::{Row, Sweep};
-use sweeps::{measure, step_of, with};
+use sweeps::{adaptive, measure, step_of, with};
 
 /// Runs the study; writes `precision.csv` and `precision.svg`, the
 /// per-frame `precision-frames.csv` and `.svg`, and (unless it was given)
@@ -48,6 +55,7 @@ pub fn run(args: &PrecisionArgs) -> anyhow::Result<ExitCode> {
     let reference = study.reference()?;
     let (mut rows, baseline) = study.time_steps(&reference)?;
     rows.extend(study.tolerances(&reference, &baseline)?);
+    rows.extend(study.adaptive(&reference)?);
     mark_pareto(&mut rows);
     output::write(&args.out, &study.name, &rows, reference.frame_dt, args)?;
     output::report(&rows, reference.frame_dt);
@@ -81,6 +89,11 @@ impl<'a> Study<'a> {
             args.tolerances.iter().all(|t| *t > 0.0 && *t < 0.5),
             "--tolerances: each between 0 and 0.5"
         );
+        anyhow::ensure!(
+            args.errors.iter().all(|e| *e > 0.0 && *e <= 1.0),
+            "--errors: each in (0, 1] metres"
+        );
+        anyhow::ensure!(!args.integrators.is_empty(), "--integrators: at least one");
         let mut base = runner::read_spec(&args.spec)?;
         if let Some(d) = args.duration {
             anyhow::ensure!(d > 0.0 && d.is_finite(), "--duration: must be positive");
@@ -112,7 +125,10 @@ impl<'a> Study<'a> {
         let tight = self.args.tight_tolerance;
         let Some(dir) = &self.args.reference else {
             let dt = self.args.reference_dt.unwrap_or(self.smallest() / 8.0);
-            let scene = runner::scene(&with(&self.base, dt, tight), "reference")?;
+            let scene = runner::scene(
+                &with(&self.base, IntegratorKind::Bdf2, dt, tight),
+                "reference",
+            )?;
             eprintln!(
                 "reference: dt {:.3e} s, tolerance {tight:e}, {} frames ...",
                 step_of(&scene),
@@ -133,7 +149,10 @@ impl<'a> Study<'a> {
             return Ok(r);
         };
         let r = Reference::read(&dir.join("reference.bin"))?;
-        let scene = runner::scene(&with(&self.base, self.smallest(), tight), "reference")?;
+        let scene = runner::scene(
+            &with(&self.base, IntegratorKind::Bdf2, self.smallest(), tight),
+            "reference",
+        )?;
         anyhow::ensure!(
             (r.frame_dt - scene.frame_dt()).abs() < 1e-12 * scene.frame_dt(),
             "--reference: frames every {} s, this study needs {} s",
@@ -160,27 +179,49 @@ impl<'a> Study<'a> {
         })
     }
 
-    /// The time-step sweep, and the frames of its tight run at the
-    /// tolerance sweep's step (run apart if the sweep has no such step).
+    /// The time-step sweep of each integrator, and the frames of the
+    /// scene's integrator's tight run at the tolerance sweep's step (run
+    /// apart if the sweep has no such run).
     fn time_steps(&self, reference: &Reference) -> anyhow::Result<(Vec<Row>, Vec<Vec<Vec3>>)> {
         let tight = self.args.tight_tolerance;
-        let fixed = runner::scene(&with(&self.base, self.fixed_dt(), tight), "tolerance sweep")?;
+        let own = self.base.solver.integrator;
+        let fixed = runner::scene(
+            &with(&self.base, own, self.fixed_dt(), tight),
+            "tolerance sweep",
+        )?;
         let h = step_of(&fixed);
         let mut baseline = None;
         let mut rows = Vec::new();
-        for &dt in &self.dts {
-            let scene = runner::scene(&with(&self.base, dt, tight), "time-step sweep")?;
-            let (row, frames) = self.measure(Sweep::TimeStep, &scene, reference)?;
-            if (row.dt - h).abs() <= 1e-12 * h {
-                baseline = Some(frames);
+        for &integrator in &self.args.integrators {
+            for &dt in &self.dts {
+                let spec = with(&self.base, integrator, dt, tight);
+                let scene = runner::scene(&spec, "time-step sweep")?;
+                let (row, frames) = self.measure(Sweep::TimeStep, &scene, reference)?;
+                if integrator == own && (row.dt - h).abs() <= 1e-12 * h {
+                    baseline = Some(frames);
+                }
+                rows.push(row);
             }
-            rows.push(row);
         }
         let baseline = match baseline {
             Some(frames) => frames,
             None => measure(Sweep::TimeStep, &fixed, 1, &reference.frames, self.diagonal)?.1,
         };
         Ok((rows, baseline))
+    }
+
+    /// The adaptive sweep: each integrator at each requested error.
+    fn adaptive(&self, reference: &Reference) -> anyhow::Result<Vec<Row>> {
+        let tight = self.args.tight_tolerance;
+        let mut rows = Vec::new();
+        for &integrator in &self.args.integrators {
+            for &error in &self.args.errors {
+                let spec = adaptive(&self.base, integrator, error, tight);
+                let scene = runner::scene(&spec, "adaptive sweep")?;
+                rows.push(self.measure(Sweep::Adaptive, &scene, reference)?.0);
+            }
+        }
+        Ok(rows)
     }
 
     /// The tolerance sweep at the fixed step, with each run's error
@@ -192,7 +233,13 @@ impl<'a> Study<'a> {
     ) -> anyhow::Result<Vec<Row>> {
         let mut rows = Vec::new();
         for &tol in &self.args.tolerances {
-            let scene = runner::scene(&with(&self.base, self.fixed_dt(), tol), "tolerance sweep")?;
+            let spec = with(
+                &self.base,
+                self.base.solver.integrator,
+                self.fixed_dt(),
+                tol,
+            );
+            let scene = runner::scene(&spec, "tolerance sweep")?;
             let (mut row, frames) = self.measure(Sweep::Tolerance, &scene, reference)?;
             // A run that stopped early has no solver error either.
             row.solver_error_rms = row
@@ -218,7 +265,7 @@ impl<'a> Study<'a> {
             &reference.frames,
             self.diagonal,
         )?;
-        if sweep == Sweep::TimeStep {
+        if sweep != Sweep::Tolerance {
             output::print_row(&row);
         }
         Ok((row, frames))

@@ -10,12 +10,16 @@ use super::row::{Row, Sweep};
 use crate::cli::PrecisionArgs;
 use crate::commands::bench::csvfile::write_csv;
 use crate::commands::bench::plot::{Series, Style, loglog};
+use drapery_sim::spec::IntegratorKind;
 
 /// A line of `precision.csv`.
 #[derive(Serialize)]
 struct CsvRow {
     sweep: Sweep,
+    integrator: &'static str,
     dt: f64,
+    error_target: Option<f64>,
+    error_estimate: f64,
     tolerance: f64,
     steps: usize,
     wall_seconds: f64,
@@ -32,6 +36,7 @@ struct CsvRow {
 #[derive(Serialize)]
 struct FrameRow {
     sweep: Sweep,
+    integrator: &'static str,
     dt: f64,
     tolerance: f64,
     frame: usize,
@@ -51,7 +56,10 @@ pub fn write(
         &dir.join("precision.csv"),
         rows.iter().map(|r| CsvRow {
             sweep: r.sweep,
+            integrator: r.integrator.name(),
             dt: r.dt,
+            error_target: r.error_target,
+            error_estimate: r.error_estimate,
             tolerance: r.tolerance,
             steps: r.steps,
             wall_seconds: r.wall_seconds,
@@ -69,6 +77,7 @@ pub fn write(
         rows.iter().flat_map(|r| {
             r.per_frame.iter().enumerate().map(move |(k, e)| FrameRow {
                 sweep: r.sweep,
+                integrator: r.integrator.name(),
                 dt: r.dt,
                 tolerance: r.tolerance,
                 frame: k + 1,
@@ -84,8 +93,9 @@ pub fn write(
 /// One run's line in the log.
 pub fn print_row(r: &Row) {
     eprintln!(
-        "  {:<9} dt {:.3e} tol {:.0e}: {:>6} steps, {:>8.3} s, {:>7} CG its, error rms {:.3e} max {:.3e}{}",
+        "  {:<9} {:<5} dt {:.3e} tol {:.0e}: {:>6} steps, {:>8.3} s, {:>7} CG its, error rms {:.3e} max {:.3e}{}{}",
         r.sweep.name(),
+        r.integrator.name(),
         r.dt,
         r.tolerance,
         r.steps,
@@ -94,31 +104,46 @@ pub fn print_row(r: &Row) {
         r.error_rms,
         r.error_max,
         r.solver_error_rms
-            .map_or(String::new(), |e| format!(", solver error rms {e:.3e}"))
+            .map_or(String::new(), |e| format!(", solver error rms {e:.3e}")),
+        r.error_target.map_or(String::new(), |e| format!(
+            ", asked {e:.1e} m/frame, estimated max {:.2e} m/frame",
+            r.error_estimate
+        ))
     );
 }
 
 /// The study's conclusions: observed orders, solver error against
 /// tolerance, the Pareto front.
 pub fn report(rows: &[Row], frame_dt: f64) {
-    let (fit, pairs) = orders(rows);
-    match fit {
-        Some(p) => eprintln!("observed order in dt (least squares): {p:.2}"),
-        None => eprintln!("observed order in dt: needs two finite points"),
-    }
-    for (dt, p) in pairs {
-        eprintln!("  order down to dt {dt:.3e}: {p:.2}");
-    }
-    let over_time = orders_over_time(rows, frame_dt);
-    if !over_time.is_empty() {
-        eprintln!(
-            "observed order at single frames: {}",
-            over_time
-                .iter()
-                .map(|(t, p)| format!("t={t:.2} s: {p:.2}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+    for integrator in IntegratorKind::ALL {
+        let mine: Vec<Row> = rows
+            .iter()
+            .filter(|r| r.integrator == integrator && r.sweep == Sweep::TimeStep)
+            .cloned()
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let name = integrator.name();
+        let (fit, pairs) = orders(&mine);
+        match fit {
+            Some(p) => eprintln!("{name}: observed order in dt (least squares): {p:.2}"),
+            None => eprintln!("{name}: observed order in dt: needs two finite points"),
+        }
+        for (dt, p) in pairs {
+            eprintln!("  order down to dt {dt:.3e}: {p:.2}");
+        }
+        let over_time = orders_over_time(&mine, frame_dt);
+        if !over_time.is_empty() {
+            eprintln!(
+                "  at single frames: {}",
+                over_time
+                    .iter()
+                    .map(|(t, p)| format!("t={t:.2} s: {p:.2}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
     }
     if let Some(p) = solver_error_exponent(rows) {
         eprintln!("solver error ~ tolerance^{p:.2}");
@@ -128,10 +153,11 @@ pub fn report(rows: &[Row], frame_dt: f64) {
     front.sort_by(|a, b| a.wall_seconds.total_cmp(&b.wall_seconds));
     for r in front {
         eprintln!(
-            "  {:>8.3} s  {:.3e}  ({} sweep: dt {:.3e} s, tol {:.0e})",
+            "  {:>8.3} s  {:.3e}  ({} sweep, {}: dt {:.3e} s, tol {:.0e})",
             r.wall_seconds,
             r.error_rms,
             r.sweep.name(),
+            r.integrator.name(),
             r.dt,
             r.tolerance
         );
@@ -147,7 +173,7 @@ fn plot_frames(path: &Path, name: &str, rows: &[Row], frame_dt: f64) -> anyhow::
         .iter()
         .filter(|r| r.sweep == Sweep::TimeStep)
         .map(|r| Series {
-            name: format!("dt {:.2e} s", r.dt),
+            name: format!("{} dt {:.2e} s", r.integrator.name(), r.dt),
             points: r
                 .per_frame
                 .iter()
@@ -167,9 +193,9 @@ fn plot_frames(path: &Path, name: &str, rows: &[Row], frame_dt: f64) -> anyhow::
 
 /// Error against wall time, one curve per sweep, the front as a band.
 fn plot_front(path: &Path, name: &str, rows: &[Row], args: &PrecisionArgs) -> anyhow::Result<()> {
-    let curve = |sweep: Sweep| -> Vec<(f64, f64)> {
+    let curve = |sweep: Sweep, integrator: Option<IntegratorKind>| -> Vec<(f64, f64)> {
         rows.iter()
-            .filter(|r| r.sweep == sweep)
+            .filter(|r| r.sweep == sweep && integrator.is_none_or(|i| r.integrator == i))
             .map(|r| (r.wall_seconds, r.error_rms))
             .collect()
     };
@@ -183,6 +209,37 @@ fn plot_front(path: &Path, name: &str, rows: &[Row], args: &PrecisionArgs) -> an
         .iter()
         .find(|r| r.sweep == Sweep::Tolerance)
         .map_or(f64::NAN, |r| r.dt);
+    let mut series = Vec::new();
+    for &integrator in &args.integrators {
+        let name = integrator.name();
+        series.push(Series {
+            name: format!(
+                "{name}, time-step sweep {:.2e}…{:.2e} s, tol {:.0e}",
+                args.dt_max,
+                args.dt_max / f64::from(1u32 << args.halvings),
+                args.tight_tolerance
+            ),
+            points: curve(Sweep::TimeStep, Some(integrator)),
+            style: Style::Line,
+        });
+        if !args.errors.is_empty() {
+            series.push(Series {
+                name: format!("{name}, adaptive, error {:?} m/frame", args.errors),
+                points: curve(Sweep::Adaptive, Some(integrator)),
+                style: Style::Line,
+            });
+        }
+    }
+    series.push(Series {
+        name: format!("tolerance sweep at dt {fixed:.2e} s"),
+        points: curve(Sweep::Tolerance, None),
+        style: Style::Line,
+    });
+    series.push(Series {
+        name: "Pareto front".into(),
+        points: front,
+        style: Style::Band,
+    });
     loglog(
         path,
         &format!("{name}: position error against wall time"),
@@ -190,27 +247,6 @@ fn plot_front(path: &Path, name: &str, rows: &[Row], args: &PrecisionArgs) -> an
             "wall seconds (median)",
             "RMS position error / cloth diagonal",
         ),
-        &[
-            Series {
-                name: format!(
-                    "time-step sweep {:.2e}…{:.2e} s, tol {:.0e}",
-                    args.dt_max,
-                    args.dt_max / f64::from(1u32 << args.halvings),
-                    args.tight_tolerance
-                ),
-                points: curve(Sweep::TimeStep),
-                style: Style::Line,
-            },
-            Series {
-                name: format!("tolerance sweep at dt {fixed:.2e} s"),
-                points: curve(Sweep::Tolerance),
-                style: Style::Line,
-            },
-            Series {
-                name: "Pareto front".into(),
-                points: front,
-                style: Style::Band,
-            },
-        ],
+        &series,
     )
 }

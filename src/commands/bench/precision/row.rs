@@ -1,5 +1,6 @@
 //! What a study records of one run.
 
+use drapery_sim::spec::IntegratorKind;
 use serde::Serialize;
 
 /// What a sweep varies.
@@ -13,6 +14,10 @@ pub enum Sweep {
     /// step, the solver's error alone.
     #[serde(rename = "tolerance")]
     Tolerance,
+    /// `dt: "adaptive"` at a requested error per frame, at the tight
+    /// tolerance: the controller's cost and its calibration.
+    #[serde(rename = "adaptive")]
+    Adaptive,
 }
 
 impl Sweep {
@@ -21,6 +26,7 @@ impl Sweep {
         match self {
             Sweep::TimeStep => "dt",
             Sweep::Tolerance => "tolerance",
+            Sweep::Adaptive => "adaptive",
         }
     }
 }
@@ -29,8 +35,15 @@ impl Sweep {
 #[derive(Debug, Clone)]
 pub struct Row {
     pub sweep: Sweep,
-    /// The step actually taken (the frame divided into whole steps).
+    pub integrator: IntegratorKind,
+    /// The step actually taken (the frame divided into whole steps); for
+    /// an adaptive run, the mean step.
     pub dt: f64,
+    /// The adaptive run's `solver.error`, metres per frame.
+    pub error_target: Option<f64>,
+    /// The largest per-frame error the run's own estimate reported
+    /// (`local_error`), metres.
+    pub error_estimate: f64,
     pub tolerance: f64,
     pub steps: usize,
     /// Median over the repeats.

@@ -5,13 +5,25 @@ use super::analysis::position_error;
 use super::row::{Row, Sweep};
 use crate::commands::bench::runner::{self, median};
 use drapery_sim::math::Vec3;
-use drapery_sim::spec::{Scene, Spec, TimeStep, TimeStepping};
+use drapery_sim::spec::{IntegratorKind, Scene, Spec, TimeStep, TimeStepping};
 
-/// `base` with a fixed step `dt` and CG tolerance `tolerance`.
-pub fn with(base: &Spec, dt: f64, tolerance: f64) -> Spec {
+/// `base` with `integrator`, a fixed step `dt` and CG tolerance
+/// `tolerance`.
+pub fn with(base: &Spec, integrator: IntegratorKind, dt: f64, tolerance: f64) -> Spec {
     let mut s = base.clone();
     s.solver.dt = TimeStep::Fixed(dt);
+    s.solver.error = None;
+    s.solver.integrator = integrator;
     s.solver.tolerance = tolerance;
+    s
+}
+
+/// `base` with `integrator`, adaptive steps at `error` metres per frame
+/// and CG tolerance `tolerance`.
+pub fn adaptive(base: &Spec, integrator: IntegratorKind, error: f64, tolerance: f64) -> Spec {
+    let mut s = with(base, integrator, 0.0, tolerance);
+    s.solver.dt = TimeStep::Adaptive;
+    s.solver.error = Some(error);
     s
 }
 
@@ -41,9 +53,18 @@ pub fn measure(
     // A run that stopped early has no error to report.
     let completed = first.error.is_none();
     let s = &first.stats;
+    let (dt, error_target) = match scene.solver.stepping {
+        TimeStepping::Fixed { .. } => (step_of(scene), None),
+        TimeStepping::Adaptive { error, .. } => {
+            (s.sim_seconds / s.steps.max(1) as f64, Some(error))
+        }
+    };
     let row = Row {
         sweep,
-        dt: step_of(scene),
+        integrator: scene.solver.integrator,
+        dt,
+        error_target,
+        error_estimate: s.local_error_max,
         tolerance: scene.solver.tolerance,
         steps: s.steps,
         wall_seconds: median(&mut walls),
