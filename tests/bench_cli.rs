@@ -113,7 +113,7 @@ fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference(
     let csv = std::fs::read_to_string(first.join("precision.csv")).expect("csv");
     let sweeps = column(&csv, "sweep");
     let mut expected = vec!["dt"; 8];
-    expected.extend(["tolerance"; 2]);
+    expected.extend(["tolerance"; 3]);
     expected.extend(["adaptive"; 4]);
     assert_eq!(sweeps, expected);
     let integrators = column(&csv, "integrator");
@@ -123,7 +123,10 @@ fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference(
             "euler", "euler", "euler", "euler", "bdf2", "bdf2", "bdf2", "bdf2"
         ]
     );
-    assert_eq!(integrators[10..], ["euler", "euler", "bdf2", "bdf2"]);
+    assert_eq!(integrators[11..], ["euler", "euler", "bdf2", "bdf2"]);
+    let stopping = column(&csv, "stopping");
+    assert!(stopping[..10].iter().all(|s| *s == "residual"), "{csv}");
+    assert_eq!(stopping[10], "error", "{csv}");
     let num = |name: &str| -> Vec<f64> {
         column(&csv, name)
             .iter()
@@ -159,13 +162,15 @@ fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference(
     let mean = bdf2.iter().sum::<f64>() / 3.0;
     assert!(mean > 1.6, "{bdf2:?}: {csv}");
     assert!((0..4).all(|k| err[k + 4] < err[k]), "{csv}");
-    // The solver's error shrinks with its tolerance.
+    // The solver's error shrinks with its tolerance; the error rule
+    // leaves a small part of the run's error (a tenth of each step's).
     let solver = num("solver_error_rms");
     assert!(solver[8] > solver[9] && solver[9] < 1e-4, "{csv}");
+    assert!(solver[10] < 0.1 * err[10], "{csv}");
     // The adaptive runs: a tighter request, a smaller error; each run's
     // own estimate within its request.
     let (target, estimate) = (num("error_target"), num("error_estimate"));
-    for k in [10, 12] {
+    for k in [11, 13] {
         assert!(target[k] == 1e-3 && target[k + 1] == 1e-4, "{csv}");
         assert!(err[k + 1] < err[k], "{csv}");
         assert!(
@@ -178,9 +183,9 @@ fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference(
     assert!(first.join("reference.bin").is_file());
     let svg = std::fs::read_to_string(first.join("precision.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.contains("Pareto front"));
-    // Every run's error frame by frame: 6 frames after frame 0, 14 runs.
+    // Every run's error frame by frame: 6 frames after frame 0, 15 runs.
     let frames = std::fs::read_to_string(first.join("precision-frames.csv")).expect("frames");
-    assert_eq!(frames.lines().count(), 1 + 14 * 6, "{frames}");
+    assert_eq!(frames.lines().count(), 1 + 15 * 6, "{frames}");
     assert!(first.join("precision-frames.svg").is_file());
 
     // The saved reference gives the same errors without being recomputed.

@@ -47,6 +47,11 @@ pub struct RunState {
     /// replaced): BDF2's memory.
     #[serde(default)]
     pub(crate) last_h: Real,
+    /// The last step's local error estimate (metres; 0 before the first
+    /// step): the scale of the next solve's error under
+    /// `stopping: "error"`.
+    #[serde(default)]
+    pub(crate) last_error: Real,
 }
 
 /// A run's state taken between frames, to continue later.
@@ -68,6 +73,7 @@ impl Clone for RunState {
             last_moved: self.last_moved.clone(),
             last_dv: self.last_dv.clone(),
             last_h: self.last_h,
+            last_error: self.last_error,
         }
     }
 
@@ -83,6 +89,7 @@ impl Clone for RunState {
         self.last_moved.clone_from(&source.last_moved);
         self.last_dv.clone_from(&source.last_dv);
         self.last_h = source.last_h;
+        self.last_error = source.last_error;
     }
 }
 
@@ -113,6 +120,7 @@ impl RunState {
             last_moved: vec![Vec3::zeros(); n],
             last_dv: vec![Vec3::zeros(); n],
             last_h: 0.0,
+            last_error: 0.0,
         }
     }
 
@@ -141,6 +149,7 @@ impl RunState {
         self.warm_start.fill(Vec3::zeros());
         self.contacts.clear();
         self.last_h = 0.0;
+        self.last_error = 0.0;
     }
 
     /// Checks that this state can continue a run of `world`: the same
@@ -182,7 +191,8 @@ impl RunState {
             && finite(&self.warm_start)
             && finite(&self.last_moved)
             && finite(&self.last_dv)
-            && self.last_h.is_finite())
+            && self.last_h.is_finite()
+            && self.last_error.is_finite())
         {
             return bad("holds non-finite numbers".into());
         }

@@ -94,8 +94,13 @@ pub fn step(
                 .assemble(&physics, &run.state, &ws.constraints, &scheme)
         });
         clock.run(Stage::Precondition, || {
-            ws.integrator
-                .precondition(&physics, &ws.constraints, &scheme, &mut run.warm_start)
+            ws.integrator.precondition(
+                &physics,
+                &ws.constraints,
+                &scheme,
+                run.last_error,
+                &mut run.warm_start,
+            )
         });
         let mut solve = clock.run(Stage::Solve, || {
             ws.integrator.solve(&ws.constraints, &mut run.warm_start)
@@ -153,6 +158,7 @@ pub fn step(
                 run.last_moved.clone_from(&ws.moved);
                 run.last_dv.clone_from(&run.warm_start);
                 run.last_h = h;
+                run.last_error = error;
                 for &(i, dv) in ws.collision.released() {
                     run.warm_start[i as usize] += dv;
                 }

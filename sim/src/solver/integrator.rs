@@ -17,7 +17,7 @@
 //! run's state: the next solve starts from it).
 
 use super::assemble::{AssemblyInput, System};
-use super::constraints::Constraints;
+use super::constraints::{Constraints, Filter};
 use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
 use super::multigrid::Multigrid;
@@ -26,7 +26,13 @@ use super::scheme::Scheme;
 use super::state::ClothState;
 use crate::cloth::{ForceModel, Grid};
 use crate::math::{Real, Vec3, is_finite};
-use crate::spec::{PreconditionerKind, SolverScene};
+use crate::spec::{PreconditionerKind, SolverScene, StoppingRule};
+
+/// The share of a step's own local time error the linear solver may add
+/// under [`StoppingRule::Error`]: a tenth, so the solver's error stays
+/// invisible next to the integrator's (docs/benchmarks.md, section 1:
+/// tolerances past that point buy nothing).
+pub const SOLVER_SHARE: Real = 0.1;
 
 /// A step that produced non-finite numbers.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -57,6 +63,7 @@ pub struct Integrator {
     precond: Box<dyn Preconditioner>,
     ws: MpcgWorkspace,
     options: MpcgOptions,
+    stopping: StoppingRule,
     warm_start: bool,
     /// BDF2's linearisation point, the prediction `x0 + p + h' v0`.
     predicted: Vec<Vec3>,
@@ -66,7 +73,7 @@ impl Integrator {
     /// The system of `model` on `grid`, with the preconditioner and
     /// stopping rule `settings` ask for.
     pub fn new(grid: &Grid, model: &ForceModel, settings: &SolverScene) -> Self {
-        Self::from_parts(
+        let mut integrator = Self::from_parts(
             grid.len(),
             model,
             preconditioner(settings.preconditioner, grid),
@@ -74,9 +81,12 @@ impl Integrator {
                 tolerance: settings.tolerance,
                 max_iterations: settings.max_iterations,
                 reference: None,
+                error_bound: None,
             },
             settings.warm_start,
-        )
+        );
+        integrator.stopping = settings.stopping;
+        integrator
     }
 
     /// An integrator over `n` particles with a given preconditioner and
@@ -94,6 +104,7 @@ impl Integrator {
             precond,
             ws: MpcgWorkspace::default(),
             options,
+            stopping: StoppingRule::Residual,
             warm_start,
             predicted: vec![Vec3::zeros(); n],
         }
@@ -157,11 +168,19 @@ impl Integrator {
     /// when warm starts are off; its constrained components set to the
     /// targets). When that already meets the tolerance there is nothing to
     /// solve and the preconditioner is not rebuilt.
+    ///
+    /// `step_error` is the last step's local error estimate (metres, RMS
+    /// over the free particles; 0 when unknown). Under
+    /// [`StoppingRule::Error`] the solver's own error in this step's
+    /// positions, `h' e`, may be [`SOLVER_SHARE`] of it: the mass-weighted
+    /// RMS of `e` at most `κ err / h'`, which `|e|_A ≥ |e|_M` turns into
+    /// the energy-norm bound `κ err / h' · √M_free`.
     pub fn precondition(
         &mut self,
         physics: &Physics<'_>,
         constraints: &Constraints,
         scheme: &Scheme<'_>,
+        step_error: Real,
         dv: &mut [Vec3],
     ) {
         let h = scheme.h_eff();
@@ -181,6 +200,18 @@ impl Integrator {
         })
         .sqrt();
         self.options.reference = Some(sb.max(gravity_impulse));
+        self.options.error_bound =
+            (self.stopping == StoppingRule::Error && step_error > 0.0).then(|| {
+                let free_mass: Real = crate::parallel::sum(physics.mass.len(), |r| {
+                    physics.mass[r.clone()]
+                        .iter()
+                        .zip(&constraints.filter[r])
+                        .filter(|(_, f)| **f == Filter::Free)
+                        .map(|(m, _)| m)
+                        .sum()
+                });
+                SOLVER_SHARE * step_error / h * free_mass.sqrt()
+            });
         let problem = problem(&self.system, constraints);
         let start = mpcg::start(&problem, dv, &mut self.ws);
         if start > self.options.threshold(&problem) {

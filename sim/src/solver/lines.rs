@@ -138,6 +138,7 @@ mod tests {
             tolerance: 1e-10,
             max_iterations: 20_000,
             reference: None,
+            error_bound: None,
         };
         let mut results = Vec::new();
         let precs: [Box<dyn Preconditioner>; 2] = [

@@ -22,5 +22,5 @@ pub use obstacle::{BoxShape, Cylinder, Keyframe, MeshSource, Motion, Obstacle, P
 pub use scene::{ClothScene, Scene, SolverScene, TimeStepping};
 pub use types::{
     ClothSpec, IntegratorKind, JacobianMode, Pin, PinEntry, PinGroup, PreconditionerKind,
-    SolverSpec, Spec, TimeStep,
+    SolverSpec, Spec, StoppingRule, TimeStep,
 };

@@ -2,7 +2,7 @@
 
 use super::material::MaterialParams;
 use super::obstacle::Obstacle;
-use super::types::{IntegratorKind, PreconditionerKind};
+use super::types::{IntegratorKind, PreconditionerKind, StoppingRule};
 use crate::math::{Real, Vec3};
 
 /// A scene ready to simulate; only [`super::Spec::validate`] makes one.
@@ -66,6 +66,8 @@ pub struct SolverScene {
     pub stepping: TimeStepping,
     /// Relative residual tolerance of the modified PCG.
     pub tolerance: Real,
+    /// Whether the solver's error estimate may stop it earlier.
+    pub stopping: StoppingRule,
     /// Iteration cap of the modified PCG.
     pub max_iterations: usize,
     /// The preconditioner.

@@ -268,6 +268,7 @@ mod tests {
                 tolerance: 1e-8,
                 max_iterations: 5000,
                 reference: None,
+                error_bound: None,
             },
             &mut MpcgWorkspace::default(),
         );

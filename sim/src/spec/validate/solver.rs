@@ -89,6 +89,7 @@ pub(super) fn validate_solver(
     ok.then_some(SolverScene {
         stepping,
         tolerance: s.tolerance,
+        stopping: s.stopping,
         max_iterations: s.max_iterations as usize,
         preconditioner: s.preconditioner,
         integrator: s.integrator,

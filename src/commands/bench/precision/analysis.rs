@@ -110,6 +110,7 @@ pub fn orders_over_time(rows: &[Row], frame_dt: f64) -> Vec<(f64, f64)> {
 pub fn solver_error_exponent(rows: &[Row]) -> Option<f64> {
     let tol: Vec<(f64, f64)> = rows
         .iter()
+        .filter(|r| r.stopping == drapery_sim::spec::StoppingRule::Residual)
         .filter_map(|r| Some((r.tolerance, r.solver_error_rms?)))
         .filter(|(_, e)| *e > 0.0)
         .collect();
@@ -124,6 +125,7 @@ mod tests {
         Row {
             sweep,
             integrator: drapery_sim::spec::IntegratorKind::Euler,
+            stopping: drapery_sim::spec::StoppingRule::Residual,
             dt,
             error_target: None,
             error_estimate: 0.0,

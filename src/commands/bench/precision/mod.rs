@@ -38,7 +38,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use drapery_sim::math::Vec3;
-use drapery_sim::spec::{IntegratorKind, Spec, TimeStep};
+use drapery_sim::spec::{IntegratorKind, Spec, StoppingRule, TimeStep};
 
 use super::runner;
 use crate::cli::PrecisionArgs;
@@ -231,14 +231,17 @@ impl<'a> Study<'a> {
         reference: &Reference,
         baseline: &[Vec<Vec3>],
     ) -> anyhow::Result<Vec<Row>> {
+        let own = self.base.solver.integrator;
+        let by_residual = self
+            .args
+            .tolerances
+            .iter()
+            .map(|&tol| with(&self.base, own, self.fixed_dt(), tol));
+        // And the scene's tolerance with the error rule.
+        let mut by_error = with(&self.base, own, self.fixed_dt(), self.base.solver.tolerance);
+        by_error.solver.stopping = StoppingRule::Error;
         let mut rows = Vec::new();
-        for &tol in &self.args.tolerances {
-            let spec = with(
-                &self.base,
-                self.base.solver.integrator,
-                self.fixed_dt(),
-                tol,
-            );
+        for spec in by_residual.chain([by_error]) {
             let scene = runner::scene(&spec, "tolerance sweep")?;
             let (mut row, frames) = self.measure(Sweep::Tolerance, &scene, reference)?;
             // A run that stopped early has no solver error either.

@@ -10,13 +10,14 @@ use super::row::{Row, Sweep};
 use crate::cli::PrecisionArgs;
 use crate::commands::bench::csvfile::write_csv;
 use crate::commands::bench::plot::{Series, Style, loglog};
-use drapery_sim::spec::IntegratorKind;
+use drapery_sim::spec::{IntegratorKind, StoppingRule};
 
 /// A line of `precision.csv`.
 #[derive(Serialize)]
 struct CsvRow {
     sweep: Sweep,
     integrator: &'static str,
+    stopping: StoppingRule,
     dt: f64,
     error_target: Option<f64>,
     error_estimate: f64,
@@ -57,6 +58,7 @@ pub fn write(
         rows.iter().map(|r| CsvRow {
             sweep: r.sweep,
             integrator: r.integrator.name(),
+            stopping: r.stopping,
             dt: r.dt,
             error_target: r.error_target,
             error_estimate: r.error_estimate,
@@ -93,11 +95,15 @@ pub fn write(
 /// One run's line in the log.
 pub fn print_row(r: &Row) {
     eprintln!(
-        "  {:<9} {:<5} dt {:.3e} tol {:.0e}: {:>6} steps, {:>8.3} s, {:>7} CG its, error rms {:.3e} max {:.3e}{}{}",
+        "  {:<9} {:<5} dt {:.3e} tol {:.0e}{}: {:>6} steps, {:>8.3} s, {:>7} CG its, error rms {:.3e} max {:.3e}{}{}",
         r.sweep.name(),
         r.integrator.name(),
         r.dt,
         r.tolerance,
+        match r.stopping {
+            StoppingRule::Error => " (error rule)",
+            StoppingRule::Residual => "",
+        },
         r.steps,
         r.wall_seconds,
         r.cg_iterations,

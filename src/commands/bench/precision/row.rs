@@ -1,6 +1,6 @@
 //! What a study records of one run.
 
-use drapery_sim::spec::IntegratorKind;
+use drapery_sim::spec::{IntegratorKind, StoppingRule};
 use serde::Serialize;
 
 /// What a sweep varies.
@@ -10,8 +10,9 @@ pub enum Sweep {
     /// discretisation's error (plus what contact events add).
     #[serde(rename = "dt")]
     TimeStep,
-    /// The CG tolerance at a fixed step: against the tight run at that
-    /// step, the solver's error alone.
+    /// The CG tolerance at a fixed step (the residual rule alone, then the
+    /// scene's tolerance under the error rule): against the tight run at
+    /// that step, the solver's error alone.
     #[serde(rename = "tolerance")]
     Tolerance,
     /// `dt: "adaptive"` at a requested error per frame, at the tight
@@ -36,6 +37,8 @@ impl Sweep {
 pub struct Row {
     pub sweep: Sweep,
     pub integrator: IntegratorKind,
+    /// What stopped CG.
+    pub stopping: StoppingRule,
     /// The step actually taken (the frame divided into whole steps); for
     /// an adaptive run, the mean step.
     pub dt: f64,

@@ -5,16 +5,18 @@ use super::analysis::position_error;
 use super::row::{Row, Sweep};
 use crate::commands::bench::runner::{self, median};
 use drapery_sim::math::Vec3;
-use drapery_sim::spec::{IntegratorKind, Scene, Spec, TimeStep, TimeStepping};
+use drapery_sim::spec::{IntegratorKind, Scene, Spec, StoppingRule, TimeStep, TimeStepping};
 
 /// `base` with `integrator`, a fixed step `dt` and CG tolerance
-/// `tolerance`.
+/// `tolerance`, the residual rule alone stopping CG (so a sweep measures
+/// what it varies).
 pub fn with(base: &Spec, integrator: IntegratorKind, dt: f64, tolerance: f64) -> Spec {
     let mut s = base.clone();
     s.solver.dt = TimeStep::Fixed(dt);
     s.solver.error = None;
     s.solver.integrator = integrator;
     s.solver.tolerance = tolerance;
+    s.solver.stopping = StoppingRule::Residual;
     s
 }
 
@@ -62,6 +64,7 @@ pub fn measure(
     let row = Row {
         sweep,
         integrator: scene.solver.integrator,
+        stopping: scene.solver.stopping,
         dt,
         error_target,
         error_estimate: s.local_error_max,
