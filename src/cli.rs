@@ -315,11 +315,12 @@ pub struct PrecisionArgs {
     #[arg(long, value_delimiter = ',', default_value = "euler,bdf2")]
     pub integrators: Vec<drapery_sim::spec::IntegratorKind>,
     /// Position errors per frame (metres) of the adaptive sweep, each run
-    /// with `dt: "adaptive"` and that `solver.error`; `--errors ''` skips
-    /// the sweep.
+    /// with `dt: "adaptive"` and that `solver.error`; `--errors` with no
+    /// value skips the sweep.
     #[arg(
         long,
         value_delimiter = ',',
+        num_args = 0..,
         default_value = "1e-2,3e-3,1e-3,3e-4,1e-4"
     )]
     pub errors: Vec<f64>,
