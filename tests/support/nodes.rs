@@ -12,7 +12,8 @@ use super::{Endpoint, Server, client, data_dir, job, status, wait_for};
 pub const TEST_LEASE: &str = "3";
 
 /// Starts node `name` on the store at `url` with `workers` workers, one
-/// solver thread, the test lease and checkpoints every half second.
+/// solver thread, the test lease (unless `extra` sets one) and checkpoints
+/// every half second.
 pub fn node(url: &str, name: &str, workers: u32, extra: &[&str]) -> Server {
     let workers = workers.to_string();
     let mut flags = vec![
@@ -24,11 +25,12 @@ pub fn node(url: &str, name: &str, workers: u32, extra: &[&str]) -> Server {
         &workers,
         "--threads",
         "1",
-        "--lease-seconds",
-        TEST_LEASE,
         "--checkpoint-seconds",
         "0.5",
     ];
+    if !extra.contains(&"--lease-seconds") {
+        flags.extend(["--lease-seconds", TEST_LEASE]);
+    }
     flags.extend_from_slice(extra);
     Server::start(&data_dir(name), &flags)
 }

@@ -48,12 +48,18 @@ impl Jobs {
     /// `None` once shutting down. A store that does not answer is waited
     /// out the same way.
     pub fn next_attempt(&self) -> Option<Attempt> {
+        // Said once per outage, not at every look.
+        let mut failing = false;
         while !self.is_stopping() {
             let seen = self.wakeup.seen();
             match self.claim() {
                 Ok(Some(attempt)) => return Some(attempt),
-                Ok(None) => {}
-                Err(e) => tracing::warn!(error = %e, "claiming a job failed; trying again"),
+                Ok(None) => failing = false,
+                Err(e) if !failing => {
+                    warn!(error = %e, "claiming a job failed; trying again every {POLL:?}");
+                    failing = true;
+                }
+                Err(e) => tracing::debug!(error = %e, "claiming a job failed again"),
             }
             self.wakeup.wait(seen, self.stopping_flag(), POLL);
         }
