@@ -158,3 +158,44 @@ fn host_name() -> String {
         .filter(|h| !h.is_empty())
         .unwrap_or_else(|| "drapery".to_owned())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+
+    fn config(flags: &[&str]) -> Result<Config, ConfigError> {
+        let argv = ["drapery", "serve"].iter().chain(flags);
+        let Command::Serve(args) = Cli::try_parse_from(argv).expect("flags").command else {
+            unreachable!("parsed as serve");
+        };
+        Config::from_args(&args)
+    }
+
+    /// An API-only node needs a store other nodes share; node names and
+    /// leases are checked, each error naming its flag.
+    #[test]
+    fn node_flags_are_checked_naming_the_flag() {
+        let e = config(&["--workers", "0"]).expect_err("no shared store");
+        assert!(e.to_string().contains("--store postgres://"), "{e}");
+        let pg = ["--store", "postgres://u@h/db"];
+        let c = config(&[&pg[..], &["--workers", "0", "--node", "api-1"]].concat())
+            .expect("an API-only node");
+        assert_eq!((c.workers, c.node.as_str()), (0, "api-1"));
+        assert!(
+            !config(&[]).expect("defaults").node.is_empty(),
+            "the host name"
+        );
+        for bad in ["", "a b", "ü", &"x".repeat(64)] {
+            let e = config(&["--node", bad]).expect_err("a bad name");
+            assert!(e.to_string().starts_with("--node"), "{e}");
+        }
+        for bad in ["0", "0.5", "4000", "NaN"] {
+            let e = config(&["--lease-seconds", bad]).expect_err("a bad lease");
+            assert!(e.to_string().starts_with("--lease-seconds"), "{e}");
+        }
+        let e = config(&["--store-connections", "0"]).expect_err("no connections");
+        assert!(e.to_string().starts_with("--store-connections"), "{e}");
+    }
+}
