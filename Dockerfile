@@ -3,12 +3,16 @@
 #   docker build -t drapery .
 #   docker run -p 8080:8080 -v drapery-data:/data drapery
 #
+# Several nodes on one PostgreSQL: compose.yaml. scripts/container-check
+# builds and runs this file with podman in CI.
+#
 # Build stage: the toolchain the project pins (rust-version 1.85+; CI uses
 # 1.95). The bundled SQLite needs the C compiler the rust image carries.
 FROM rust:1.95-slim-bookworm AS build
 WORKDIR /src
 COPY Cargo.toml Cargo.lock ./
 COPY sim sim
+COPY studies studies
 COPY src src
 COPY benches benches
 COPY api api

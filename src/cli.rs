@@ -98,12 +98,31 @@ pub struct ServeArgs {
     /// Address to listen on; port 0 picks a free port (printed at start).
     #[arg(long, env = "DRAPERY_ADDR", default_value = "127.0.0.1:8080")]
     pub addr: std::net::SocketAddr,
-    /// Solver worker threads; default: the machine's cores.
+    /// Solver worker threads; default: the machine's cores. 0 makes an
+    /// API-only node, which needs a shared --store.
     #[arg(long, env = "DRAPERY_WORKERS")]
     pub workers: Option<usize>,
-    /// Directory of the job database (created if missing).
+    /// Directory of the job database (created if missing), when --store
+    /// is not given.
     #[arg(long, env = "DRAPERY_DATA", default_value = "drapery-data")]
     pub data: PathBuf,
+    /// A PostgreSQL job store, `postgres://USER[:PASSWORD]@HOST[:PORT]/DB`,
+    /// which several nodes may share; default: SQLite under --data, for
+    /// one machine.
+    #[arg(long, env = "DRAPERY_STORE")]
+    pub store: Option<String>,
+    /// Most connections this node opens to the PostgreSQL store.
+    #[arg(long, env = "DRAPERY_STORE_CONNECTIONS", default_value_t = 16)]
+    pub store_connections: usize,
+    /// This node's name, unique among the nodes sharing a store: the job
+    /// status's `node`, the metrics' `node` label; default: the host name.
+    #[arg(long, env = "DRAPERY_NODE")]
+    pub node: Option<String>,
+    /// Seconds a node's lease on a running job lasts without renewal (it
+    /// renews every second): a job whose node died is taken over by
+    /// another node about this long after its last renewal.
+    #[arg(long, env = "DRAPERY_LEASE_SECONDS", default_value_t = 20.0)]
+    pub lease_seconds: f64,
     /// Jobs that may wait for a worker; beyond it, submissions get 429.
     #[arg(long, env = "DRAPERY_QUEUE_CAPACITY", default_value_t = 64)]
     pub queue_capacity: usize,

@@ -57,8 +57,9 @@ async fn a_job_beyond_the_budgets_is_refused_naming_the_budget_and_the_estimate(
         .text()
         .await
         .expect("text");
-    assert!(
-        metrics.contains("drapery_jobs_rejected_over_budget_total 1"),
+    assert_eq!(
+        metric(&metrics, "drapery_jobs_rejected_over_budget_total{"),
+        Some(1.0),
         "{metrics}"
     );
     s.stop().await;

@@ -134,12 +134,10 @@ async fn full_queue_refuses_with_retry_after_and_list_pages() {
         .text()
         .await
         .expect("text");
-    assert!(
-        metrics.contains("drapery_jobs{status=\"cancelled\"}"),
-        "{metrics}"
-    );
-    assert!(
-        metrics.contains("drapery_jobs_rejected_queue_full_total 1"),
+    assert!(metrics.contains("status=\"cancelled\"}"), "{metrics}");
+    assert_eq!(
+        metric(&metrics, "drapery_jobs_rejected_queue_full_total{"),
+        Some(1.0),
         "{metrics}"
     );
     assert!(metrics.contains("drapery_step_seconds_bucket"), "{metrics}");

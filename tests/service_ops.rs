@@ -54,22 +54,26 @@ async fn the_router_answers_without_a_listener() {
     use axum::http::{Request, StatusCode, header};
     use clap::Parser;
     use drapery::cli::{Cli, Command};
-    use drapery::service::{AppState, Config, Store, app};
+    use drapery::service::{AppState, Config, app, open_store};
     use tower::ServiceExt;
 
     let data = data_dir("router");
     let state = |flags: &[&str]| {
+        let store = store_flags(&data);
         let argv = ["drapery", "serve", "--data"]
             .into_iter()
             .chain([data.to_str().expect("UTF-8")])
+            .chain(store.iter().map(String::as_str))
             .chain(flags.iter().copied());
         let Command::Serve(args) = Cli::try_parse_from(argv).expect("flags").command else {
             unreachable!("parsed as serve");
         };
-        AppState::new(
-            Config::from_args(&args).expect("config"),
-            Store::open(&data).expect("store"),
-        )
+        let config = Config::from_args(&args).expect("config");
+        // A PostgreSQL store blocks as it connects: off the executor.
+        let store = std::thread::spawn(move || open_store(&args).expect("store"))
+            .join()
+            .expect("joined");
+        AppState::new(config, store)
     };
     let json_of = |body: Body| async move {
         let bytes = to_bytes(body, 1 << 20).await.expect("a body");

@@ -12,8 +12,22 @@ use support::*;
 
 const LONG: Duration = Duration::from_secs(120);
 
-/// The bytes of every file in `dir` (the database and its log).
+/// What the store of data directory `dir` holds. SQLite: the bytes of
+/// every file in `dir` (the database and its log). PostgreSQL: the bytes
+/// of the jobs' rows, frames and checkpoints (it reuses a deleted row's
+/// space for new rows rather than giving it back to the file system).
 fn dir_bytes(dir: &Path) -> u64 {
+    if let Some(server) = suite_server() {
+        let sum = psql(
+            &database_for(&server, dir),
+            "SELECT (COALESCE((SELECT SUM(octet_length(positions) + octet_length(stats))
+                               FROM frames), 0)
+                   + COALESCE((SELECT SUM(octet_length(data)) FROM checkpoints), 0)
+                   + COALESCE((SELECT SUM(octet_length(hello) + octet_length(spec))
+                               FROM jobs), 0))::BIGINT",
+        );
+        return sum.trim().parse().expect("a byte count");
+    }
     std::fs::read_dir(dir)
         .expect("a data directory")
         .filter_map(Result::ok)

@@ -12,7 +12,12 @@ use crate::cli::{Retention, ServeArgs};
 /// Settings from `drapery serve`'s flags.
 #[derive(Debug, Clone)]
 pub struct Config {
+    /// Solver threads of this node; 0 for an API-only node.
     pub workers: usize,
+    /// This node's name among the nodes sharing the store.
+    pub node: String,
+    /// Seconds a lease lasts without renewal.
+    pub lease_seconds: f64,
     pub queue_capacity: usize,
     /// Size limits a submitted spec must meet.
     pub limits: Limits,
@@ -39,8 +44,16 @@ pub struct Config {
 /// Flags that cannot configure a service.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("--workers must be at least 1")]
+    #[error(
+        "--workers 0 makes an API-only node, which needs a store other nodes share: --store postgres://USER@HOST/DB"
+    )]
     NoWorkers,
+    #[error("--node {0:?}: expected 1 to 63 letters, digits, '.', '_' or '-'")]
+    Node(String),
+    #[error("--lease-seconds must be between 1 and 3600")]
+    Lease,
+    #[error("--store-connections must be at least 1")]
+    NoStoreConnections,
     #[error("--queue-capacity must be at least 1")]
     NoQueue,
     #[error("--max-wall-seconds and --max-duration must be positive")]
@@ -61,8 +74,22 @@ impl Config {
         let workers = a.workers.unwrap_or_else(|| {
             std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
         });
-        if workers < 1 {
+        if workers < 1 && a.store.is_none() {
             return Err(ConfigError::NoWorkers);
+        }
+        let node = match &a.node {
+            Some(n) => n.clone(),
+            None => host_name(),
+        };
+        let valid = |c: char| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-');
+        if node.is_empty() || node.len() > 63 || !node.chars().all(valid) {
+            return Err(ConfigError::Node(node));
+        }
+        if !(1.0..=3600.0).contains(&a.lease_seconds) {
+            return Err(ConfigError::Lease);
+        }
+        if a.store_connections < 1 {
+            return Err(ConfigError::NoStoreConnections);
         }
         if a.queue_capacity < 1 {
             return Err(ConfigError::NoQueue);
@@ -94,6 +121,8 @@ impl Config {
         let core = Limits::default();
         Ok(Self {
             workers,
+            node,
+            lease_seconds: a.lease_seconds,
             queue_capacity: a.queue_capacity,
             limits: Limits {
                 max_particles: a.max_particles,
@@ -115,5 +144,58 @@ impl Config {
             budgets,
             retention: a.retention.clone(),
         })
+    }
+}
+
+/// The machine's host name (the default node name), or `drapery` where
+/// none can be read.
+fn host_name() -> String {
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    read("/proc/sys/kernel/hostname")
+        .or_else(|| read("/etc/hostname"))
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|h| h.trim().to_owned())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "drapery".to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+
+    fn config(flags: &[&str]) -> Result<Config, ConfigError> {
+        let argv = ["drapery", "serve"].iter().chain(flags);
+        let Command::Serve(args) = Cli::try_parse_from(argv).expect("flags").command else {
+            unreachable!("parsed as serve");
+        };
+        Config::from_args(&args)
+    }
+
+    /// An API-only node needs a store other nodes share; node names and
+    /// leases are checked, each error naming its flag.
+    #[test]
+    fn node_flags_are_checked_naming_the_flag() {
+        let e = config(&["--workers", "0"]).expect_err("no shared store");
+        assert!(e.to_string().contains("--store postgres://"), "{e}");
+        let pg = ["--store", "postgres://u@h/db"];
+        let c = config(&[&pg[..], &["--workers", "0", "--node", "api-1"]].concat())
+            .expect("an API-only node");
+        assert_eq!((c.workers, c.node.as_str()), (0, "api-1"));
+        assert!(
+            !config(&[]).expect("defaults").node.is_empty(),
+            "the host name"
+        );
+        for bad in ["", "a b", "ü", &"x".repeat(64)] {
+            let e = config(&["--node", bad]).expect_err("a bad name");
+            assert!(e.to_string().starts_with("--node"), "{e}");
+        }
+        for bad in ["0", "0.5", "4000", "NaN"] {
+            let e = config(&["--lease-seconds", bad]).expect_err("a bad lease");
+            assert!(e.to_string().starts_with("--lease-seconds"), "{e}");
+        }
+        let e = config(&["--store-connections", "0"]).expect_err("no connections");
+        assert!(e.to_string().starts_with("--store-connections"), "{e}");
     }
 }

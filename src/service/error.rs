@@ -108,7 +108,7 @@ fn status_of(code: ErrorCode) -> StatusCode {
         ErrorCode::UnsupportedMediaType => StatusCode::UNSUPPORTED_MEDIA_TYPE,
         ErrorCode::QueueFull => StatusCode::TOO_MANY_REQUESTS,
         ErrorCode::Conflict => StatusCode::CONFLICT,
-        ErrorCode::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
+        ErrorCode::ShuttingDown | ErrorCode::StoreUnavailable => StatusCode::SERVICE_UNAVAILABLE,
         // A job's failure codes never answer a request; were one to, it
         // would be the server's fault.
         ErrorCode::Internal | ErrorCode::NonFinite | ErrorCode::LimitExceeded => {
@@ -138,6 +138,16 @@ pub fn code_for_status(status: StatusCode) -> ErrorCode {
 
 impl From<Fault> for ApiError {
     fn from(e: Fault) -> Self {
+        if let Fault::Store(store) = &e
+            && store.is_unavailable()
+        {
+            tracing::warn!(error = %e, "job store unavailable");
+            return Self::new(
+                ErrorCode::StoreUnavailable,
+                "the job store cannot be reached now; try again shortly",
+            )
+            .retry_later();
+        }
         tracing::error!(error = %e, "internal failure");
         Self::new(
             ErrorCode::Internal,

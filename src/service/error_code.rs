@@ -16,7 +16,8 @@ use utoipa::ToSchema;
 /// arrive in time), `payload_too_large` (413), `unsupported_media_type`
 /// (415: a body that is not `application/json`), `queue_full` (429, see
 /// `Retry-After`), `conflict` (409), `bad_request` (400), `shutting_down`
-/// (503), `internal` (500). Failed jobs: `non_finite` (the solver produced
+/// (503), `store_unavailable` (503: the job store, PostgreSQL, cannot be
+/// reached now; see `Retry-After`), `internal` (500). Failed jobs: `non_finite` (the solver produced
 /// NaN or infinity), `limit_exceeded` (the wall-time limit or the disk
 /// budget), `internal`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
@@ -36,6 +37,7 @@ pub enum ErrorCode {
     Conflict,
     BadRequest,
     ShuttingDown,
+    StoreUnavailable,
     Internal,
     NonFinite,
     LimitExceeded,
@@ -62,6 +64,7 @@ mod tests {
             (ErrorCode::Conflict, "conflict"),
             (ErrorCode::BadRequest, "bad_request"),
             (ErrorCode::ShuttingDown, "shutting_down"),
+            (ErrorCode::StoreUnavailable, "store_unavailable"),
             (ErrorCode::Internal, "internal"),
             (ErrorCode::NonFinite, "non_finite"),
             (ErrorCode::LimitExceeded, "limit_exceeded"),

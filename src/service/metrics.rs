@@ -1,8 +1,12 @@
 //! Prometheus metrics (`GET /metrics`), through `prometheus-client`.
 //!
-//! Counters and the step-time histogram are updated where things happen;
-//! jobs by status and queue depth are read when scraped, from the store
-//! and the queue, so they are right after a restart too.
+//! Per node: every series carries this node's name as the label `node`,
+//! and the counters, the step-time histogram and `workers_busy` count what
+//! happened on this node. Jobs by status and the queue depth are read from
+//! the store when scraped, so they are the whole store's (the same on every
+//! node sharing it) and right after a restart too.
+
+use std::borrow::Cow;
 
 use prometheus_client::encoding::EncodeLabelSet;
 use prometheus_client::metrics::counter::Counter;
@@ -24,6 +28,7 @@ pub struct Metrics {
     registry: Registry,
     jobs: Family<StatusLabel, Gauge>,
     queue_depth: Gauge,
+    workers: Gauge,
     workers_busy: Gauge,
     /// Jobs accepted by `POST /v1/jobs`.
     pub submitted: Counter,
@@ -39,11 +44,14 @@ pub struct Metrics {
     pub step_seconds: Histogram,
 }
 
-impl Default for Metrics {
-    fn default() -> Self {
-        let mut registry = Registry::with_prefix("drapery");
+impl Metrics {
+    /// The metrics of node `node`.
+    pub fn new(node: &str) -> Self {
+        let labels = [(Cow::Borrowed("node"), Cow::Owned(node.to_owned()))];
+        let mut registry = Registry::with_prefix_and_labels("drapery", labels.into_iter());
         let jobs = Family::<StatusLabel, Gauge>::default();
         let queue_depth = Gauge::default();
+        let workers = Gauge::default();
         let workers_busy = Gauge::default();
         let submitted = Counter::default();
         let rejected_queue_full = Counter::default();
@@ -57,6 +65,11 @@ impl Default for Metrics {
             "queue_depth",
             "Jobs waiting for a worker",
             queue_depth.clone(),
+        );
+        registry.register(
+            "workers",
+            "Worker threads of this node (0: API only)",
+            workers.clone(),
         );
         registry.register(
             "workers_busy",
@@ -85,6 +98,7 @@ impl Default for Metrics {
             registry,
             jobs,
             queue_depth,
+            workers,
             workers_busy,
             submitted,
             rejected_queue_full,
@@ -94,11 +108,15 @@ impl Default for Metrics {
             step_seconds,
         }
     }
-}
 
-impl Metrics {
     /// The text exposition, with the scrape-time gauges set first.
-    pub fn render(&self, by_status: &[(Status, u64)], queue: usize, busy: usize) -> String {
+    pub fn render(
+        &self,
+        by_status: &[(Status, u64)],
+        queue: usize,
+        busy: usize,
+        workers: usize,
+    ) -> String {
         for s in Status::ALL {
             let n = by_status
                 .iter()
@@ -110,6 +128,7 @@ impl Metrics {
         }
         self.queue_depth.set(queue as i64);
         self.workers_busy.set(busy as i64);
+        self.workers.set(workers as i64);
         let mut out = String::new();
         // Writing to a String cannot fail.
         let _ = prometheus_client::encoding::text::encode(&mut out, &self.registry);
@@ -123,17 +142,30 @@ mod tests {
 
     #[test]
     fn exposition_has_every_status_and_the_histogram() {
-        let m = Metrics::default();
+        let m = Metrics::new("n1");
         m.frames.inc_by(3);
         m.step_seconds.observe(0.002);
-        let text = m.render(&[(Status::Succeeded, 2)], 1, 0);
+        let text = m.render(&[(Status::Succeeded, 2)], 1, 0, 2);
         assert!(
-            text.contains("drapery_jobs{status=\"succeeded\"} 2"),
+            text.contains("drapery_jobs{node=\"n1\",status=\"succeeded\"} 2"),
             "{text}"
         );
-        assert!(text.contains("drapery_jobs{status=\"queued\"} 0"), "{text}");
-        assert!(text.contains("drapery_queue_depth 1"), "{text}");
-        assert!(text.contains("drapery_frames_total 3"), "{text}");
-        assert!(text.contains("drapery_step_seconds_count 1"), "{text}");
+        assert!(
+            text.contains("drapery_jobs{node=\"n1\",status=\"queued\"} 0"),
+            "{text}"
+        );
+        assert!(
+            text.contains("drapery_queue_depth{node=\"n1\"} 1"),
+            "{text}"
+        );
+        assert!(text.contains("drapery_workers{node=\"n1\"} 2"), "{text}");
+        assert!(
+            text.contains("drapery_frames_total{node=\"n1\"} 3"),
+            "{text}"
+        );
+        assert!(
+            text.contains("drapery_step_seconds_count{node=\"n1\"} 1"),
+            "{text}"
+        );
     }
 }

@@ -1,16 +1,17 @@
 //! `drapery serve`: the simulation service (DESIGN.md "Service").
 //!
 //! ```text
-//! HTTP ──▶ server::app ──▶ api (REST) ─────▶ jobs::Jobs ──▶ store (SQLite, WAL)
-//!                     └──▶ stream (WebSocket) ──┘  │  ▲          ▲
-//!                                                  ▼  │          │ frames, checkpoints
-//!                                              queue, hub ◀── worker (threads, solver)
+//! HTTP ──▶ server::app ──▶ api (REST) ─────▶ jobs::Jobs ──▶ store (SQLite, or PostgreSQL
+//!                     └──▶ stream (WebSocket) ──┘  │  ▲          ▲   shared by nodes)
+//!                                                  ▼  │          │ claims, leases, frames
+//!                                                   hub ◀─── worker (threads, solver)
 //! ```
 //!
 //! Handlers only extract, call [`Jobs`], and answer; `Jobs` owns every
 //! change to a job. The solver runs on worker threads, never on the async
-//! executor; the store is the single source of truth, so a restart
-//! recovers every job and every stored frame.
+//! executor; the store is the single source of truth and the queue, so a
+//! restart recovers every job and every stored frame, and nodes sharing a
+//! PostgreSQL store share its jobs (a worker claims one under a lease).
 
 mod api;
 mod auth;
@@ -43,6 +44,6 @@ pub use error_code::ErrorCode;
 pub use job::{JobError, JobId, Status};
 pub use jobs::Jobs;
 pub use keys::{KeyError, Keys};
-pub use server::{ServeError, app, run, serve};
+pub use server::{ServeError, app, open_store, run, serve};
 pub use state::AppState;
 pub use store::{Store, StoreError};

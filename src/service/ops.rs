@@ -28,12 +28,14 @@ pub async fn healthz() -> Json<serde_json::Value> {
     ))]
 pub async fn readyz(State(state): State<AppState>) -> Response {
     let jobs = &state.jobs;
-    let store_ok = {
+    // Counting the queue is the store's answer to the probe.
+    let queued = {
         let jobs = std::sync::Arc::clone(jobs);
-        tokio::task::spawn_blocking(move || jobs.store_ok())
+        tokio::task::spawn_blocking(move || jobs.queued_count())
             .await
-            .unwrap_or(false)
+            .unwrap_or(None)
     };
+    let store_ok = queued.is_some();
     let ready = store_ok && !jobs.is_stopping();
     let status = if ready {
         StatusCode::OK
@@ -44,15 +46,16 @@ pub async fn readyz(State(state): State<AppState>) -> Response {
         "status": if ready { "ready" } else { "not_ready" },
         "store": store_ok,
         "stopping": jobs.is_stopping(),
+        "node": state.config.node,
         "workers": state.config.workers,
-        "queue_depth": jobs.queued_count(),
+        "queue_depth": queued,
         "queue_capacity": state.config.queue_capacity,
     });
     if !ready {
         let error = if jobs.is_stopping() {
             ApiError::new(ErrorCode::ShuttingDown, "the server is shutting down")
         } else {
-            ApiError::new(ErrorCode::Internal, "the job store does not answer")
+            ApiError::new(ErrorCode::StoreUnavailable, "the job store does not answer")
         };
         body["error"] = serde_json::to_value(&error.body).unwrap_or_default();
     }

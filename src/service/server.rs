@@ -13,7 +13,6 @@
 
 use std::future::Future;
 use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -47,9 +46,9 @@ const RETENTION_CHECK: Duration = Duration::from_secs(2);
 pub enum ServeError {
     #[error(transparent)]
     Config(#[from] ConfigError),
-    #[error("opening the job store in {}", dir.display())]
+    #[error("opening the job store {place}")]
     Store {
-        dir: PathBuf,
+        place: String,
         #[source]
         source: StoreError,
     },
@@ -156,13 +155,19 @@ pub async fn run(
             .map_err(ServeError::Recover)?
     };
     let addr = listener.local_addr()?;
-    let workers = worker::spawn(&jobs, state.config.workers).map_err(|e| {
-        // The ones started end at their next look at the queue.
-        jobs.begin_shutdown();
-        ServeError::Workers(e)
-    })?;
+    let workers = worker::spawn(&jobs, state.config.workers)
+        .and_then(|mut w| {
+            w.push(worker::spawn_keeper(&jobs)?);
+            Ok(w)
+        })
+        .map_err(|e| {
+            // The ones started end at their next look at the store.
+            jobs.begin_shutdown();
+            ServeError::Workers(e)
+        })?;
     info!(
         %addr,
+        node = %state.config.node,
         workers = state.config.workers,
         recovered,
         auth = state.config.keys.enabled(),
@@ -261,11 +266,7 @@ async fn drain(jobs: &Jobs, config: &Config, workers: Vec<JoinHandle<()>>) {
 /// SIGINT.
 pub fn serve(args: &ServeArgs) -> Result<(), ServeError> {
     let config = Config::from_args(args)?;
-    let store = Store::open(&args.data).map_err(|source| ServeError::Store {
-        dir: args.data.clone(),
-        source,
-    })?;
-    info!(data = %args.data.display(), "job store opened");
+    let store = open_store(args)?;
     let state = AppState::new(config, store);
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -287,6 +288,30 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServeError> {
     // not hold the exit back.
     runtime.shutdown_timeout(Duration::from_secs(1));
     served
+}
+
+/// The store `--store` names (PostgreSQL), else SQLite under `--data`.
+pub fn open_store(args: &ServeArgs) -> Result<Store, ServeError> {
+    match &args.store {
+        Some(url) => {
+            let store = Store::connect(url, args.store_connections).map_err(|source| {
+                ServeError::Store {
+                    place: "given by --store".into(),
+                    source,
+                }
+            })?;
+            info!("job store connected (PostgreSQL)");
+            Ok(store)
+        }
+        None => {
+            let store = Store::open(&args.data).map_err(|source| ServeError::Store {
+                place: format!("in {}", args.data.display()),
+                source,
+            })?;
+            info!(data = %args.data.display(), "job store opened");
+            Ok(store)
+        }
+    }
 }
 
 /// SIGINT or SIGTERM.

@@ -50,6 +50,9 @@ pub struct Job {
     /// The spec's name.
     pub name: String,
     pub status: Status,
+    /// The node running the job, or that ran it last; null while it waits
+    /// for its first (or next) run.
+    pub node: Option<String>,
     pub progress: Progress,
     pub timings: Timings,
     /// The run's statistics without the per-frame list (the fields of
@@ -76,6 +79,7 @@ impl Job {
             id: row.id.to_string(),
             name: row.name.clone(),
             status: row.status,
+            node: row.node.clone(),
             progress: Progress {
                 frames_done: row.frames_done,
                 frames_total: row.frames_total,

@@ -156,3 +156,14 @@ pub async fn job_after_done(s: &impl Endpoint, id: &str) -> Value {
     })
     .await
 }
+
+/// The value of metric `name` (a series whose name and labels start with
+/// `name`, whatever labels follow, such as the node's) in a Prometheus
+/// exposition.
+pub fn metric(text: &str, name: &str) -> Option<f64> {
+    text.lines()
+        .filter(|l| !l.starts_with('#'))
+        .find(|l| l.starts_with(name))
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|v| v.parse().ok())
+}

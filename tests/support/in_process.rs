@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Parser;
 use drapery::cli::{Cli, Command};
-use drapery::service::{AppState, Config, ServeError, Store, run};
+use drapery::service::{AppState, Config, ServeError, open_store, run};
 use tokio::net::TcpListener;
 use tokio::sync::oneshot;
 use tokio::task::JoinHandle;
@@ -35,14 +35,21 @@ impl Service {
     /// free port of 127.0.0.1.
     pub async fn start(data: &Path, flags: &[&str]) -> Self {
         let data_arg = data.to_str().expect("a UTF-8 temp path");
+        let store = super::store_flags(data);
         let argv = ["drapery", "serve", "--data", data_arg]
             .into_iter()
+            .chain(store.iter().map(String::as_str))
             .chain(flags.iter().copied());
         let Command::Serve(args) = Cli::try_parse_from(argv).expect("valid flags").command else {
             unreachable!("parsed as serve");
         };
         let config = Config::from_args(&args).expect("a valid configuration");
-        let state = AppState::new(config, Store::open(data).expect("the store opens"));
+        // Off the executor: a PostgreSQL store connects by blocking.
+        let store = tokio::task::spawn_blocking(move || open_store(&args))
+            .await
+            .expect("joined")
+            .expect("the store opens");
+        let state = AppState::new(config, store);
         let listener = TcpListener::bind("127.0.0.1:0").await.expect("binds");
         let base = format!("http://{}", listener.local_addr().expect("an address"));
         let (stop, stopped) = oneshot::channel::<()>();

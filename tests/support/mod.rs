@@ -6,11 +6,15 @@
 
 mod client;
 mod in_process;
+mod nodes;
+mod postgres;
 mod process;
 mod specs;
 
 pub use client::*;
 pub use in_process::Service;
+pub use nodes::*;
+pub use postgres::*;
 pub use process::Server;
 pub use specs::*;
 

@@ -28,6 +28,11 @@ impl Server {
         let mut child = Command::new(env!("CARGO_BIN_EXE_drapery"))
             .args(["serve", "--addr", "127.0.0.1:0", "--data"])
             .arg(data)
+            .args(if flags.contains(&"--store") {
+                Vec::new()
+            } else {
+                super::store_flags(data)
+            })
             .args(flags)
             .env("RUST_LOG", "warn")
             .stdout(Stdio::piped())

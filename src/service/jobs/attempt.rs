@@ -1,14 +1,17 @@
-//! A worker's side of a job: take the next queued one, start it, record
-//! its frames as they come, and record how the attempt ended. The worker
-//! runs the solver; everything it changes about the job goes through here.
+//! A worker's side of a job: claim the next one from the store (a queued
+//! job, or one whose node stopped renewing its lease), record its frames
+//! as they come, and record how the attempt ended. The worker runs the
+//! solver; everything it changes about the job goes through here.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use tracing::{error, info};
+use tracing::{error, info, warn};
 
+use super::hub::Live;
 use super::lifecycle::Jobs;
-use super::running::RunHandle;
+use super::running::{RunHandle, StopReason};
+use super::wakeup::POLL;
 use crate::service::error_code::ErrorCode;
 use crate::service::job::{JobError, JobId, Status, now};
 use crate::service::protocol::to_json;
@@ -34,43 +37,68 @@ pub enum Outcome {
     Cancelled(Option<String>),
     /// Shutdown: back to the queue, to resume from the checkpoint.
     Interrupted,
+    /// The store went away or another node took the job over: nothing is
+    /// recorded; the lease lapses (or has) and a node resumes the job
+    /// from its checkpoint.
+    Lost,
 }
 
 impl Jobs {
-    /// The oldest queued job, waiting for one; `None` once shutting down.
-    pub fn next_queued(&self) -> Option<JobId> {
-        self.queue.pop(self.stopping_flag())
+    /// Claims the next job for this node, waiting while there is none;
+    /// `None` once shutting down. A store that does not answer is waited
+    /// out the same way.
+    pub fn next_attempt(&self) -> Option<Attempt> {
+        // Said once per outage, not at every look.
+        let mut failing = false;
+        while !self.is_stopping() {
+            let seen = self.wakeup.seen();
+            match self.claim() {
+                Ok(Some(attempt)) => return Some(attempt),
+                Ok(None) => failing = false,
+                Err(e) if !failing => {
+                    warn!(error = %e, "claiming a job failed; trying again every {POLL:?}");
+                    failing = true;
+                }
+                Err(e) => tracing::debug!(error = %e, "claiming a job failed again"),
+            }
+            self.wakeup.wait(seen, self.stopping_flag(), POLL);
+        }
+        None
     }
 
-    /// Starts job `id`: running, with a stop flag and a deadline for what
-    /// is left of its wall time. `None` if it is not queued any more
-    /// (cancelled while it waited).
-    pub fn start(&self, id: JobId) -> Result<Option<Attempt>, StoreError> {
-        let Some(row) = self.store.job(id)? else {
+    /// Claims the oldest queued job (or one whose lease lapsed) for this
+    /// node and starts it: a stop flag, a deadline for what is left of its
+    /// wall time, its stream news, and its hello stored the first time.
+    pub fn claim(&self) -> Result<Option<Attempt>, StoreError> {
+        let Some(row) = self
+            .store
+            .claim(&self.config.node, self.config.lease_seconds)?
+        else {
             return Ok(None);
         };
-        if row.status != Status::Queued {
-            return Ok(None);
-        }
+        let id = row.id;
         let left = (self.config.max_wall_seconds - row.run_seconds).max(0.0);
         let deadline =
             Instant::now() + Duration::try_from_secs_f64(left.min(1e9)).unwrap_or_default();
         let handle = Arc::new(RunHandle::new(deadline));
-        // The handle is in place before the job is marked running, so a
-        // cancel that finds it running also finds its stop flag; a cancel
-        // that won the race leaves it not queued, and it does not start.
-        self.running.insert(id, Arc::clone(&handle));
-        if !self.store.mark_running(id, now())? {
-            self.running.remove(id);
-            return Ok(None);
+        if row.cancel_requested {
+            // Cancelled while the node that ran it was stopping or dying.
+            handle.stop(StopReason::Cancelled);
         }
-        self.hub.update(id, |l| l.status = Status::Running);
+        self.running.insert(id, Arc::clone(&handle));
+        self.hub.open(
+            id,
+            Live {
+                frames: row.frames_done,
+                status: Status::Running,
+            },
+        );
         if let Err(e) = self.store_hello(&row) {
             // Its streams build it when they need it; the run itself
             // reports a spec that does not load.
-            error!(error = %e, "the job's hello could not be stored");
+            error!(%id, error = %e, "the job's hello could not be stored");
         }
-        info!(attempt = row.attempts + 1, "job started");
+        info!(%id, attempt = row.attempts, node = %self.config.node, "job started");
         Ok(Some(Attempt { row, handle }))
     }
 
@@ -98,7 +126,8 @@ impl Jobs {
         checkpoint: Option<&[u8]>,
         seconds_per_step: Option<f64>,
     ) -> Result<(), StoreError> {
-        self.store.put_frame(id, frame, checkpoint)?;
+        self.store
+            .put_frame(&self.config.node, id, frame, checkpoint)?;
         self.metrics.frames.inc();
         if let Some(s) = seconds_per_step {
             self.metrics.step_seconds.observe(s);
@@ -117,12 +146,19 @@ impl Jobs {
         run_seconds: f64,
     ) -> Result<(), StoreError> {
         let id = attempt.row.id;
+        let node = &self.config.node;
         self.running.remove(id);
         let (status, error, stats) = match outcome {
             Outcome::Interrupted => {
-                self.store.requeue(id, run_seconds)?;
-                self.hub.update(id, |l| l.status = Status::Queued);
+                // Its streams here follow it in the store from now on.
+                self.hub.drop_job(id);
+                self.store.requeue(node, id, run_seconds)?;
                 info!("job interrupted by shutdown; it resumes at the next start");
+                return Ok(());
+            }
+            Outcome::Lost => {
+                self.hub.drop_job(id);
+                warn!("job left to its lease: the store was lost or another node took it over");
                 return Ok(());
             }
             Outcome::Succeeded(stats) => (Status::Succeeded, None, Some(stats)),
@@ -131,6 +167,7 @@ impl Jobs {
         };
         let error = error.map(|e| to_json(&e));
         self.store.finish(
+            node,
             id,
             &Ending {
                 status,
@@ -160,9 +197,20 @@ impl Jobs {
             finished_at: now(),
             run_seconds: 0.0,
         };
-        if let Err(e) = self.store.finish(id, &ending) {
-            error!(error = %e, "could not record the failure either");
+        match self.store.finish(&self.config.node, id, &ending) {
+            Ok(()) => self.hub.close(id, Status::Failed),
+            Err(e) => {
+                error!(error = %e, "could not record the failure either");
+                self.hub.drop_job(id);
+            }
         }
-        self.hub.close(id, Status::Failed);
+    }
+
+    /// Lets go of job `id` without recording anything: the store is
+    /// unreachable or the job is another node's now. Its lease lapses (or
+    /// has), and a node resumes it from its checkpoint.
+    pub fn release(&self, id: JobId) {
+        self.running.remove(id);
+        self.hub.drop_job(id);
     }
 }

@@ -1,6 +1,7 @@
 //! `DELETE` of a job: a queued job is cancelled at once; a running one is
-//! asked to stop at its next solver step, and the answer waits (a while)
-//! for it; an ended one (succeeded, failed or cancelled) is deleted with
+//! asked to stop at its next solver step (through the store, so the
+//! request reaches whichever node runs it, at its next lease renewal), and
+//! the answer waits (a while) for it; an ended one (succeeded, failed or cancelled) is deleted with
 //! its frames and checkpoint, and its space given back. Retention
 //! (`--retention`) deletes ended jobs the same way.
 
@@ -17,14 +18,14 @@ use crate::service::store::{JobRow, StoreError};
 
 /// Longest wait for a running job to stop.
 const CANCEL_WAIT: Duration = Duration::from_secs(5);
+/// How often that wait looks at the job.
+const CANCEL_POLL: Duration = Duration::from_millis(100);
 
 impl Jobs {
     /// Cancels job `id` of `owner` if it is queued or running, and returns
     /// it as it is then (cancelled, or still running after 5 s); deletes it
     /// if it has ended, and returns it as it was.
     pub async fn cancel(self: &Arc<Self>, owner: &Owner, id: &str) -> Result<JobRow, JobsError> {
-        // Subscribe before reading the job, so its end is not missed.
-        let mut rx = JobId::parse(id).and_then(|id| self.hub.subscribe(id));
         let row = self.get(owner, id).await?;
         match row.status {
             Status::Succeeded | Status::Failed | Status::Cancelled => {
@@ -45,10 +46,16 @@ impl Jobs {
             .blocking(move |jobs| Ok::<_, JobsError>(jobs.cancel_if_queued(job)?))
             .await?;
         if !cancelled_queued {
+            self.blocking(move |jobs| Ok::<_, JobsError>(jobs.store.request_cancel(job)?))
+                .await?;
+            // At once if it runs here; elsewhere at that node's renewal.
             self.running.stop(job, StopReason::Cancelled);
-            if let Some(rx) = &mut rx {
-                let _ = tokio::time::timeout(CANCEL_WAIT, rx.wait_for(|l| l.status.is_terminal()))
-                    .await;
+            let waited = tokio::time::Instant::now();
+            while waited.elapsed() < CANCEL_WAIT {
+                tokio::time::sleep(CANCEL_POLL).await;
+                if self.get(owner, id).await?.status.is_terminal() {
+                    break;
+                }
             }
         }
         tracing::info!(id = %job, "job cancel requested");
@@ -82,14 +89,8 @@ impl Jobs {
         Ok(deleted)
     }
 
-    /// Cancels job `id` if it is still queued (and frees its place in the
-    /// queue); `false` if it was not.
+    /// Cancels job `id` if it is still queued; `false` if it was not.
     fn cancel_if_queued(&self, id: JobId) -> Result<bool, StoreError> {
-        let done = self.store.cancel_queued(id, now())?;
-        if done {
-            self.queue.remove(id);
-            self.hub.close(id, Status::Cancelled);
-        }
-        Ok(done)
+        self.store.cancel_queued(id, now())
     }
 }

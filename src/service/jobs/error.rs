@@ -23,10 +23,6 @@ pub enum Fault {
     /// A job just stored cannot be read back.
     #[error("job {0} vanished")]
     Vanished(JobId),
-    /// The store says the job can still progress, but no one here runs or
-    /// queues it.
-    #[error("job {id} is {} but not tracked", status.as_str())]
-    Untracked { id: JobId, status: Status },
     /// A stored spec no longer loads or draws.
     #[error("job {id}: the stored spec cannot make a hello: {message}")]
     Hello { id: JobId, message: String },

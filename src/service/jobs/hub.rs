@@ -4,9 +4,10 @@
 //! A watch channel keeps only the latest value, so the solver never waits
 //! for a client and a slow client never queues messages: each client reads
 //! the frames themselves from the store, at its own pace, up to the count
-//! it last saw. A client subscribes *before* reading the job from the
-//! store; a job without a channel has ended (workers close the channel only
-//! after recording the end), so no end is ever missed.
+//! it last saw. Only jobs running on this node have a channel (opened when
+//! a worker here claims the job); a stream of any other job follows it in
+//! the store (`subscription`). A channel is closed with the job's end only
+//! after the end is recorded, so no end is ever missed.
 
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -23,7 +24,7 @@ pub struct Live {
     pub status: Status,
 }
 
-/// The channels of jobs that are queued or running in this process.
+/// The channels of the jobs running on this node.
 #[derive(Debug, Default)]
 pub struct Hub {
     jobs: Mutex<HashMap<JobId, watch::Sender<Live>>>,
@@ -54,6 +55,13 @@ impl Hub {
         if let Some(tx) = self.lock().remove(&id) {
             tx.send_modify(|l| l.status = status);
         }
+    }
+
+    /// Stops tracking a job that did not end here (shutdown, or its lease
+    /// lost): its clients see the channel gone with the job unfinished and
+    /// follow it in the store.
+    pub fn drop_job(&self, id: JobId) {
+        self.lock().remove(&id);
     }
 
     /// Drops every channel (shutdown): clients see their sender gone.

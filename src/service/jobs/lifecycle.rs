@@ -1,21 +1,22 @@
-//! [`Jobs`]: the one owner of every job's life. It holds the store, the
-//! queue, the live news for streams, the handles of running jobs and the
-//! counters, and is the only code that changes them together: submission,
-//! cancellation, lookups, recovery at start, stream subscriptions (the
-//! other files of this folder) and a worker's attempt at a job
-//! (`attempt`).
+//! [`Jobs`]: the one owner of every job's life on this node. It holds the
+//! store (which is also the queue), the live news for streams, the handles
+//! of the jobs running here and the counters, and is the only code that
+//! changes them together: submission, cancellation, lookups, recovery at
+//! start, stream subscriptions (the other files of this folder), a
+//! worker's attempt at a job (`attempt`) and the renewal of its leases
+//! (`lease`).
 //!
-//! Its methods that touch the store are blocking (SQLite); the async ones,
-//! for request handlers, run that work on tokio's blocking pool.
+//! Its methods that touch the store are blocking; the async ones, for
+//! request handlers, run that work on tokio's blocking pool.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
 use super::error::Fault;
-use super::hub::{Hub, Live};
-use super::queue::Queue;
+use super::hub::Hub;
 use super::running::{Running, StopReason};
+use super::wakeup::Wakeup;
 use crate::service::config::Config;
 use crate::service::job::Status;
 use crate::service::metrics::Metrics;
@@ -26,52 +27,40 @@ use crate::service::store::{Store, StoreError};
 pub struct Jobs {
     pub(super) config: Arc<Config>,
     pub(super) store: Store,
-    pub(super) queue: Queue,
+    /// Where idle workers wait for a job.
+    pub(super) wakeup: Wakeup,
     pub(super) hub: Hub,
     pub(super) running: Running,
     pub(super) metrics: Metrics,
     /// Shutting down: workers stop at the next frame (with a checkpoint)
     /// and take no new job; submissions are refused.
     stopping: AtomicBool,
-    /// Held from a submission's capacity check to its push, so the queue
-    /// never holds more than its capacity.
+    /// Held from a submission's capacity check to its insert, so this
+    /// node never takes the queue past its capacity (several nodes may,
+    /// by a job each at most).
     submit: Mutex<()>,
 }
 
 impl Jobs {
     pub fn new(config: Arc<Config>, store: Store) -> Self {
         Self {
+            metrics: Metrics::new(&config.node),
             config,
             store,
-            queue: Queue::new(),
+            wakeup: Wakeup::default(),
             hub: Hub::default(),
             running: Running::default(),
-            metrics: Metrics::default(),
             stopping: AtomicBool::new(false),
             submit: Mutex::new(()),
         }
     }
 
-    /// Queues again the jobs an earlier process left queued or running;
-    /// returns how many. A job that was running resumes from its
-    /// checkpoint.
+    /// Queues again the jobs an earlier process of this node left running
+    /// (they resume from their checkpoints); returns how many jobs wait.
     pub fn recover(&self) -> Result<usize, StoreError> {
-        let jobs = self.store.unfinished()?;
-        for row in &jobs {
-            if row.status == Status::Running {
-                // Interrupted by a crash: it resumes from its checkpoint.
-                self.store.requeue(row.id, row.run_seconds)?;
-            }
-            self.hub.open(
-                row.id,
-                Live {
-                    frames: row.frames_done,
-                    status: Status::Queued,
-                },
-            );
-            self.queue.push(row.id);
-        }
-        Ok(jobs.len())
+        let waiting = self.store.recover(&self.config.node)?;
+        self.wakeup.ring_all();
+        Ok(waiting)
     }
 
     /// Shutdown begins: no job is accepted or started any more, running
@@ -79,7 +68,7 @@ impl Jobs {
     /// hears that its channel closed.
     pub fn begin_shutdown(&self) {
         self.stopping.store(true, Ordering::SeqCst);
-        self.queue.wake_all();
+        self.wakeup.ring_all();
         self.hub.close_all();
     }
 
@@ -114,22 +103,27 @@ impl Jobs {
         self.running.len()
     }
 
-    /// Jobs waiting for a worker.
-    pub fn queued_count(&self) -> usize {
-        self.queue.len()
+    /// Jobs waiting for a worker, on every node; `None` if the store
+    /// does not answer.
+    pub fn queued_count(&self) -> Option<usize> {
+        let counts = self.store.count_by_status().ok()?;
+        Some(queued(&counts))
     }
 
-    /// The store answers.
-    pub fn store_ok(&self) -> bool {
-        self.store.count_by_status().is_ok()
-    }
-
-    /// The Prometheus exposition.
+    /// The Prometheus exposition of this node.
     pub fn metrics_text(&self) -> Result<String, StoreError> {
         let counts = self.store.count_by_status()?;
-        Ok(self
-            .metrics
-            .render(&counts, self.queue.len(), self.running.len()))
+        Ok(self.metrics.render(
+            &counts,
+            queued(&counts),
+            self.running.len(),
+            self.config.workers,
+        ))
+    }
+
+    /// This node's name.
+    pub fn node(&self) -> &str {
+        &self.config.node
     }
 
     pub(super) fn submit_lock(&self) -> MutexGuard<'_, ()> {
@@ -150,4 +144,12 @@ impl Jobs {
             .await
             .map_err(|e| E::from(Fault::from(e)))?
     }
+}
+
+/// The queued jobs of counts by status.
+pub(super) fn queued(counts: &[(Status, u64)]) -> usize {
+    counts
+        .iter()
+        .find(|(s, _)| *s == Status::Queued)
+        .map_or(0, |(_, n)| *n as usize)
 }

@@ -7,12 +7,13 @@ mod cancel;
 mod error;
 mod hello;
 mod hub;
+mod lease;
 mod lifecycle;
 mod lookup;
-mod queue;
 mod running;
 mod submit;
 mod subscription;
+mod wakeup;
 
 pub use attempt::{Attempt, Outcome};
 pub use error::{Fault, JobsError, ListError, SubmitError};

@@ -19,6 +19,9 @@ pub enum StopReason {
     WallTime = 2,
     /// The server is shutting down and the grace period is over.
     Shutdown = 3,
+    /// Another node took the job over (this one stopped renewing its
+    /// lease): this node writes nothing more for it.
+    LeaseLost = 4,
 }
 
 /// The cancel flag of a running job (checked by the solver every step).
@@ -54,6 +57,7 @@ impl RunHandle {
             1 => StopReason::Cancelled,
             2 => StopReason::WallTime,
             3 => StopReason::Shutdown,
+            4 => StopReason::LeaseLost,
             _ => StopReason::None,
         }
     }
@@ -97,6 +101,11 @@ impl Running {
 
     pub fn len(&self) -> usize {
         self.lock().len()
+    }
+
+    /// The jobs running here.
+    pub fn ids(&self) -> Vec<JobId> {
+        self.lock().keys().copied().collect()
     }
 
     fn lock(&self) -> MutexGuard<'_, HashMap<JobId, Arc<RunHandle>>> {

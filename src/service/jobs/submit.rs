@@ -7,10 +7,9 @@ use tracing::info;
 
 use super::error::{Fault, SubmitError};
 use super::hello;
-use super::hub::Live;
 use super::lifecycle::Jobs;
 use crate::service::cost;
-use crate::service::job::{JobId, Status, now};
+use crate::service::job::{JobId, now};
 use crate::service::keys::Owner;
 use crate::service::store::{JobRow, NewJob};
 use crate::specfile;
@@ -45,7 +44,7 @@ impl Jobs {
         hello::check(&scene).map_err(SubmitError::Undrawable)?;
         let id = JobId::generate();
         let _guard = self.submit_lock();
-        if self.queue.len() >= self.config.queue_capacity {
+        if super::lifecycle::queued(&self.store.count_by_status()?) >= self.config.queue_capacity {
             self.metrics.rejected_queue_full.inc();
             return Err(SubmitError::QueueFull {
                 capacity: self.config.queue_capacity,
@@ -63,14 +62,7 @@ impl Jobs {
             frames_total: scene.frames as u64 + 1,
             created_at: now(),
         })?;
-        self.hub.open(
-            id,
-            Live {
-                frames: 0,
-                status: Status::Queued,
-            },
-        );
-        self.queue.push(id);
+        self.wakeup.ring();
         self.metrics.submitted.inc();
         Ok(self.store.job(id)?.ok_or(Fault::Vanished(id))?)
     }

@@ -2,11 +2,15 @@
 //! where the client asked, in order, then how the job ended.
 //!
 //! Backpressure: the solver never waits for a client. A subscription reads
-//! frames from the store at its consumer's pace and only waits on the
-//! job's watch channel (`hub`) when it has caught up, so a stalled client
-//! holds nothing but its own socket, and no client misses a frame.
+//! frames from the store at its consumer's pace and only waits when it has
+//! caught up: on the job's watch channel (`hub`) if the job runs on this
+//! node, else by looking at the job in the store every [`FOLLOW_POLL`]
+//! (it is queued, or runs on another node). A stalled client holds nothing
+//! but its own socket, and no client misses a frame: frames are stored
+//! before they are announced, and `frames_done` only grows.
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use tokio::sync::watch;
 
@@ -17,6 +21,9 @@ use crate::service::job::{JobId, Status};
 use crate::service::keys::Owner;
 use crate::service::protocol::End;
 use crate::service::store::StoredFrame;
+
+/// How often a stream of a job that does not run here looks at it again.
+pub const FOLLOW_POLL: Duration = Duration::from_millis(200);
 
 /// What a subscription delivers next.
 #[derive(Debug)]
@@ -36,7 +43,7 @@ pub struct Subscription {
     id: JobId,
     /// The next frame to deliver.
     next: u64,
-    /// News of a job this process runs or queues; `None` once it ended.
+    /// News of a job this node runs; `None`: follow it in the store.
     live: Option<watch::Receiver<Live>>,
     /// Frames stored and status as last seen; `None`: look again.
     known: Option<(u64, Status)>,
@@ -51,11 +58,8 @@ impl Jobs {
         id: &str,
         from: u64,
     ) -> Result<Subscription, JobsError> {
-        // Subscribe before reading the job, so an end between the two is
-        // seen: a job without a channel has ended (workers close it only
-        // after recording the end).
-        let live = JobId::parse(id).and_then(|id| self.hub.subscribe(id));
         let row = self.get(owner, id).await?;
+        let live = self.hub.subscribe(row.id);
         Ok(Subscription {
             jobs: Arc::clone(self),
             id: row.id,
@@ -102,7 +106,7 @@ impl Subscription {
                 self.finished = true;
                 return Ok(Some(Event::End(self.end(status, frames).await?)));
             }
-            if !self.wait(status).await? {
+            if !self.wait().await? {
                 self.finished = true;
                 return Ok(Some(Event::Interrupted));
             }
@@ -125,29 +129,28 @@ impl Subscription {
         Ok((row.frames_done, row.status))
     }
 
-    /// Waits for news of a job that has not ended (`status` as last
-    /// seen); `false` when the server is shutting down instead.
-    async fn wait(&mut self, status: Status) -> Result<bool, Fault> {
+    /// Waits for news of a job that has not ended; `false` when the
+    /// server is shutting down instead.
+    async fn wait(&mut self) -> Result<bool, Fault> {
         let Some(rx) = &mut self.live else {
-            return match status {
-                // A job this process does not track cannot progress.
-                Status::Queued | Status::Running => Err(Fault::Untracked {
-                    id: self.id,
-                    status,
-                }),
-                Status::Succeeded | Status::Failed | Status::Cancelled => Ok(true),
-            };
+            if self.jobs.is_stopping() {
+                return Ok(false);
+            }
+            // It may have started here since: then its channel tells.
+            self.live = self.jobs.hub.subscribe(self.id);
+            if self.live.is_none() {
+                tokio::time::sleep(FOLLOW_POLL).await;
+            }
+            return Ok(true);
         };
         if rx.changed().await.is_ok() {
             return Ok(true);
         }
-        // The channel closed: the job ended (its last value says so) or the
-        // server is shutting down.
-        if !rx.borrow().status.is_terminal() {
-            return Ok(false);
-        }
+        // The channel closed: the job ended (its last value says so), it
+        // stopped here without ending (shutdown, lost lease), or the whole
+        // server is shutting down. From now on, the store tells.
         self.live = None;
-        Ok(true)
+        Ok(!self.jobs.is_stopping())
     }
 
     async fn frame(&self, n: u64) -> Result<Option<StoredFrame>, Fault> {

@@ -1,7 +1,10 @@
-//! The worker pool: OS threads that take queued jobs and run the solver
-//! (`pool`), and the one module that talks to the core (`run`).
+//! The worker pool: OS threads that claim jobs and run the solver
+//! (`pool`), the thread that keeps their leases (`keeper`), and the one
+//! module that talks to the core (`run`).
 
+mod keeper;
 mod pool;
 mod run;
 
+pub use keeper::spawn as spawn_keeper;
 pub use pool::spawn;

@@ -1,11 +1,13 @@
-//! Worker threads: each takes the next queued job, runs one attempt at it,
-//! and goes on to the next until the service shuts down.
+//! Worker threads: each claims the next job from the store, runs one
+//! attempt at it, and goes on to the next until the service shuts down.
 //!
 //! A job resumes from its stored checkpoint when it has one (after a
 //! restart or a shutdown), so frames already stored are not redone except
 //! those after the checkpoint, which come out identical (the checkpoint
 //! holds everything the steps read) and replace their copies. A panic in a
-//! job fails that job only; the worker goes on to the next.
+//! job fails that job only; the worker goes on to the next. A store that
+//! cannot be reached fails no job: the worker lets it go, its lease
+//! lapses, and a node (this one, maybe) resumes it once the store is back.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
@@ -14,10 +16,10 @@ use std::time::Instant;
 
 use tracing::{error, info_span};
 
-use super::run::simulate;
+use super::run::{RunError, is_lost, simulate};
 use crate::service::error_code::ErrorCode;
 use crate::service::job::{JobError, JobId};
-use crate::service::jobs::{Jobs, Outcome};
+use crate::service::jobs::{Attempt, Jobs, Outcome};
 use crate::service::store::StoreError;
 
 /// Starts `n` workers; they end once the service shuts down (join them).
@@ -33,10 +35,11 @@ pub fn spawn(jobs: &Arc<Jobs>, n: usize) -> std::io::Result<Vec<JoinHandle<()>>>
 }
 
 fn work(jobs: &Jobs, k: usize) {
-    while let Some(id) = jobs.next_queued() {
+    while let Some(a) = jobs.next_attempt() {
+        let id = a.row.id;
         let span = info_span!("job", %id, worker = k);
         let _entered = span.enter();
-        guarded(jobs, id, || attempt(jobs, id));
+        guarded(jobs, id, || attempt(jobs, &a));
     }
 }
 
@@ -45,6 +48,11 @@ fn work(jobs: &Jobs, k: usize) {
 fn guarded(jobs: &Jobs, id: JobId, f: impl FnOnce() -> Result<(), StoreError>) {
     let failure = match catch_unwind(AssertUnwindSafe(f)) {
         Ok(Ok(())) => return,
+        Ok(Err(e)) if is_lost(&e) => {
+            tracing::warn!(error = %e, "the job's end could not be recorded; its lease will lapse");
+            jobs.release(id);
+            return;
+        }
         Ok(Err(e)) => format!("the job's end could not be recorded: {e}"),
         Err(panic) => {
             let message = panic
@@ -59,23 +67,22 @@ fn guarded(jobs: &Jobs, id: JobId, f: impl FnOnce() -> Result<(), StoreError>) {
     jobs.fail(id, &failure);
 }
 
-/// Starts job `id` if it is still queued, runs it, records the outcome.
-fn attempt(jobs: &Jobs, id: JobId) -> Result<(), StoreError> {
-    let Some(attempt) = jobs.start(id)? else {
-        return Ok(());
-    };
+/// Runs a claimed job, records the outcome.
+fn attempt(jobs: &Jobs, attempt: &Attempt) -> Result<(), StoreError> {
     let started = Instant::now();
-    let outcome = simulate(jobs, &attempt).unwrap_or_else(|e| {
-        Outcome::Failed(
+    let outcome = match simulate(jobs, attempt) {
+        Ok(outcome) => outcome,
+        Err(RunError::Store(e)) if is_lost(&e) => Outcome::Lost,
+        Err(e) => Outcome::Failed(
             JobError {
                 code: ErrorCode::Internal,
                 message: e.to_string(),
             },
             None,
-        )
-    });
+        ),
+    };
     let run_seconds = attempt.row.run_seconds + started.elapsed().as_secs_f64();
-    jobs.conclude(&attempt, outcome, run_seconds)
+    jobs.conclude(attempt, outcome, run_seconds)
 }
 
 #[cfg(test)]
@@ -126,6 +133,8 @@ mod tests {
             .submit(&owner, SPEC.as_bytes())
             .await
             .expect("submitted");
+        let claimed = jobs.claim().expect("claims").expect("a queued job");
+        assert_eq!(claimed.row.id, row.id);
         let mut sub = jobs
             .subscribe(&owner, &row.id.to_string(), 0)
             .await
@@ -159,10 +168,13 @@ mod tests {
             .submit(&owner, SPEC.as_bytes())
             .await
             .expect("submitted");
-        assert_eq!(jobs.next_queued(), Some(row.id));
         let worker = {
             let jobs = Arc::clone(&jobs);
-            tokio::task::spawn_blocking(move || attempt(&jobs, row.id))
+            tokio::task::spawn_blocking(move || {
+                let a = jobs.claim()?.expect("a queued job");
+                assert_eq!(a.row.id, row.id);
+                attempt(&jobs, &a)
+            })
         };
         worker.await.expect("joined").expect("recorded");
         let row = jobs.get(&owner, &row.id.to_string()).await.expect("exists");

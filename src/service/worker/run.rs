@@ -68,6 +68,8 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
         Duration::try_from_secs_f64(config.checkpoint_seconds.max(0.0)).unwrap_or(Duration::MAX);
     let mut last_checkpoint = Instant::now();
     let started = Instant::now();
+    // The store was lost under a frame: the job is left to its lease.
+    let mut lost = false;
     let result = sim.run(&control, &mut rec, |s, stats| {
         let stopping = jobs.is_stopping();
         let checkpoint = (stopping || last_checkpoint.elapsed() >= interval)
@@ -86,7 +88,10 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
         disk.add(&frame, checkpoint.as_deref())?;
         let per_step = (stats.steps > 0).then(|| stats.step_seconds / stats.steps as f64);
         jobs.record_frame(row.id, &frame, checkpoint.as_deref(), per_step)
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| {
+                lost = is_lost(&e);
+                e.to_string()
+            })?;
         if stopping {
             return Err("interrupted by shutdown".to_owned());
         }
@@ -96,6 +101,7 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
         |rec: &StatsRecorder| run_summary(rec, row.run_seconds + started.elapsed().as_secs_f64());
     Ok(match result {
         Ok(()) => Outcome::Succeeded(summary(&rec)),
+        Err(SimError::Output(_)) if lost => Outcome::Lost,
         Err(SimError::Output(_)) if disk.over() => Outcome::Failed(
             JobError {
                 code: ErrorCode::LimitExceeded,
@@ -118,6 +124,7 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
                 Some(summary(&rec)),
             ),
             StopReason::Shutdown => Outcome::Interrupted,
+            StopReason::LeaseLost => Outcome::Lost,
             StopReason::Cancelled | StopReason::None => Outcome::Cancelled(Some(summary(&rec))),
         },
         Err(SimError::Output(_)) if jobs.is_stopping() => Outcome::Interrupted,
@@ -139,6 +146,12 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
             )
         }
     })
+}
+
+/// The store cannot be reached, or the job is another node's now:
+/// nothing about the job is to be recorded by this node.
+pub fn is_lost(e: &StoreError) -> bool {
+    matches!(e, StoreError::Unavailable(_) | StoreError::LeaseLost(_))
 }
 
 /// What a job holds in the store, against its disk budget.

@@ -1,12 +1,12 @@
-//! The tables, and how every connection is opened.
+//! The tables, their versions, and how every connection is opened.
 
 use std::path::Path;
 
 use rusqlite::Connection;
 
-/// Created if missing; unchanged since the first version, so any data
-/// directory opens.
-pub const SCHEMA: &str = "
+/// Version 1: the tables as the first release made them (created if
+/// missing, so a data directory of any release opens).
+const V1: &str = "
 CREATE TABLE IF NOT EXISTS jobs (
     seq          INTEGER PRIMARY KEY AUTOINCREMENT,
     id           TEXT NOT NULL UNIQUE,
@@ -41,6 +41,38 @@ CREATE TABLE IF NOT EXISTS checkpoints (
     data  BLOB NOT NULL
 );
 ";
+
+/// Version 2: leases (the node running a job, until when) and cancel
+/// requests, which the worker running a job reads as it renews its lease.
+const V2: &str = "
+ALTER TABLE jobs ADD COLUMN node TEXT;
+ALTER TABLE jobs ADD COLUMN lease_until REAL;
+ALTER TABLE jobs ADD COLUMN cancel_requested INTEGER NOT NULL DEFAULT 0;
+";
+
+/// The migrations in order; the database's `user_version` is how many
+/// of them it has.
+const MIGRATIONS: [&str; 2] = [V1, V2];
+
+/// Brings the database's schema to the newest version, each migration in
+/// a transaction with the version it reaches. A database newer than this
+/// program is refused rather than misread.
+pub fn migrate(c: &Connection) -> rusqlite::Result<()> {
+    let version: i64 = c.pragma_query_value(None, "user_version", |r| r.get(0))?;
+    if version > MIGRATIONS.len() as i64 {
+        return Err(rusqlite::Error::InvalidParameterName(format!(
+            "the database's schema is version {version}; this drapery knows up to {}: upgrade it",
+            MIGRATIONS.len()
+        )));
+    }
+    for (k, sql) in MIGRATIONS.iter().enumerate().skip(version.max(0) as usize) {
+        c.execute_batch(&format!(
+            "BEGIN; {sql} PRAGMA user_version = {}; COMMIT;",
+            k + 1
+        ))?;
+    }
+    Ok(())
+}
 
 /// The write-ahead log is cut back to this size when a checkpoint empties
 /// it (a large frame's transaction may grow it far beyond).

@@ -1,4 +1,5 @@
-//! The database handle: one writer connection and one reader connection.
+//! The SQLite database handle: one writer connection and one reader
+//! connection.
 //!
 //! NOTE: not a pool. `r2d2_sqlite` (the pool crate for SQLite) is built on
 //! `rusqlite` 0.40 and this crate uses 0.41, so it would bring a second
@@ -13,40 +14,20 @@ use std::sync::Mutex;
 use rusqlite::Connection;
 use rusqlite::types::{FromSql, FromSqlError, FromSqlResult, ToSql, ToSqlOutput, ValueRef};
 
-use super::schema::{SCHEMA, enable_incremental_vacuum, open_connection};
+use super::schema::{enable_incremental_vacuum, migrate, open_connection};
 use crate::service::job::{JobId, Status};
-
-/// Why the store failed.
-#[derive(Debug, thiserror::Error)]
-pub enum StoreError {
-    /// The data directory cannot be created.
-    #[error("creating {}: {error}", dir.display())]
-    CreateDir { dir: PathBuf, error: std::io::Error },
-    /// The database cannot be opened (not a database, locked, no space).
-    #[error("{0}")]
-    Open(rusqlite::Error),
-    /// A query failed (disk full, corrupt file).
-    #[error("job store: {0}")]
-    Sqlite(rusqlite::Error),
-}
-
-impl From<rusqlite::Error> for StoreError {
-    fn from(e: rusqlite::Error) -> Self {
-        Self::Sqlite(e)
-    }
-}
-
-pub(super) type Result<T> = std::result::Result<T, StoreError>;
+pub(super) use crate::service::store::error::Result;
+use crate::service::store::error::StoreError;
 
 /// The database.
 #[derive(Debug)]
-pub struct Store {
+pub struct Sqlite {
     path: PathBuf,
     writer: Mutex<Connection>,
     reader: Mutex<Connection>,
 }
 
-impl Store {
+impl Sqlite {
     /// Opens (creating if needed) the store in `dir`.
     pub fn open(dir: &Path) -> Result<Self> {
         std::fs::create_dir_all(dir).map_err(|error| StoreError::CreateDir {
@@ -56,7 +37,7 @@ impl Store {
         let path = dir.join("drapery.sqlite3");
         let writer = open_connection(&path).map_err(StoreError::Open)?;
         enable_incremental_vacuum(&writer).map_err(StoreError::Open)?;
-        writer.execute_batch(SCHEMA).map_err(StoreError::Open)?;
+        migrate(&writer).map_err(StoreError::Open)?;
         let reader = open_connection(&path).map_err(StoreError::Open)?;
         Ok(Self {
             path,
@@ -116,7 +97,7 @@ impl FromSql for Status {
 
 /// A fresh store in a temporary directory.
 #[cfg(test)]
-pub(super) fn temp_store() -> Store {
+pub(super) fn temp_store() -> Sqlite {
     let d = std::env::temp_dir().join(format!("drapery-store-{}", uuid::Uuid::now_v7()));
-    Store::open(&d).expect("opens")
+    Sqlite::open(&d).expect("opens")
 }

@@ -1,88 +1,17 @@
 //! The `jobs` table: a job's row through its life.
 
-use drapery_sim::spec::{Limits, Scene};
 use rusqlite::{OptionalExtension, params};
 
-use super::db::{Result, Store};
-use crate::service::job::{JobError, JobId, Status};
-use crate::specfile::{self, SpecLoadError};
+use super::db::{Result, Sqlite};
+use crate::service::job::{JobId, Status};
+use crate::service::store::{JobRow, NewJob};
 
-/// A job as stored.
-#[derive(Debug, Clone, PartialEq)]
-pub struct JobRow {
-    /// Submission order (newest is largest): the list's order and cursor.
-    pub seq: i64,
-    pub id: JobId,
-    pub owner: String,
-    pub name: String,
-    pub status: Status,
-    pub spec: String,
-    pub frames_total: u64,
-    /// Frames stored, `0..frames_done` (contiguous).
-    pub frames_done: u64,
-    /// Unix seconds.
-    pub created_at: f64,
-    pub started_at: Option<f64>,
-    pub finished_at: Option<f64>,
-    /// Wall seconds spent running, over all attempts.
-    pub run_seconds: f64,
-    /// Times a worker started the job (more than 1 after a restart).
-    pub attempts: u32,
-    /// JSON `{"code", "message"}` of a failed job.
-    pub error: Option<String>,
-    /// JSON summary of the run's statistics, when it ended.
-    pub stats: Option<String>,
-}
+/// The columns [`job_row`] reads, in its order.
+pub(super) const JOB_COLUMNS: &str = "seq, id, owner, name, status, spec, frames_total,
+    frames_done, created_at, started_at, finished_at, run_seconds, attempts, error, stats,
+    node, cancel_requested";
 
-impl JobRow {
-    /// The job's scene, from its stored spec. Submission checked the spec
-    /// against the service's limits; the core's own limits only guard
-    /// against a corrupted store here.
-    pub fn scene(&self) -> std::result::Result<Scene, SpecLoadError> {
-        specfile::load(&self.spec, &Limits::default())
-    }
-
-    /// Why it failed, if it did.
-    pub fn failure(&self) -> Option<JobError> {
-        self.error
-            .as_deref()
-            .and_then(|s| serde_json::from_str(s).ok())
-    }
-
-    /// The run's statistics summary, once it ended.
-    pub fn summary(&self) -> Option<serde_json::Value> {
-        self.stats
-            .as_deref()
-            .and_then(|s| serde_json::from_str(s).ok())
-    }
-}
-
-/// What a submission stores.
-#[derive(Debug)]
-pub struct NewJob<'a> {
-    pub id: JobId,
-    pub owner: &'a str,
-    pub name: &'a str,
-    pub spec: &'a str,
-    pub hello: &'a str,
-    pub frames_total: u64,
-    pub created_at: f64,
-}
-
-/// How a job ended, as recorded.
-#[derive(Debug)]
-pub struct Ending<'a> {
-    pub status: Status,
-    pub error: Option<&'a str>,
-    pub stats: Option<&'a str>,
-    pub finished_at: f64,
-    pub run_seconds: f64,
-}
-
-const JOB_COLUMNS: &str = "seq, id, owner, name, status, spec, frames_total, frames_done,
-    created_at, started_at, finished_at, run_seconds, attempts, error, stats";
-
-impl Store {
+impl Sqlite {
     /// Stores a submitted job as queued.
     pub fn insert_job(&self, job: &NewJob<'_>) -> Result<()> {
         self.write(|c| {
@@ -136,17 +65,6 @@ impl Store {
         })
     }
 
-    /// Jobs left queued or running by an earlier process, oldest first.
-    pub fn unfinished(&self) -> Result<Vec<JobRow>> {
-        self.read(|c| {
-            let mut stmt = c.prepare(&format!(
-                "SELECT {JOB_COLUMNS} FROM jobs WHERE status IN ('queued', 'running') ORDER BY seq"
-            ))?;
-            let rows = stmt.query_map([], job_row)?;
-            rows.collect()
-        })
-    }
-
     /// Number of jobs in each status.
     pub fn count_by_status(&self) -> Result<Vec<(Status, u64)>> {
         self.read(|c| {
@@ -164,54 +82,33 @@ impl Store {
         })
     }
 
-    /// A worker starts the job: running, one more attempt. `false` if it
-    /// is no longer queued (cancelled between the pop and the start).
-    pub fn mark_running(&self, id: JobId, now: f64) -> Result<bool> {
-        self.write(|c| {
-            let n = c.execute(
-                "UPDATE jobs SET status = 'running', attempts = attempts + 1,
-                 started_at = COALESCE(started_at, ?2) WHERE id = ?1 AND status = 'queued'",
-                params![id, now],
-            )?;
-            Ok(n == 1)
-        })
-    }
-
-    /// The job ended (succeeded, failed or cancelled).
-    pub fn finish(&self, id: JobId, end: &Ending<'_>) -> Result<()> {
-        self.write(|c| {
-            let tx = c.transaction()?;
-            tx.execute(
-                "UPDATE jobs SET status = ?2, error = ?3, stats = ?4, finished_at = ?5,
-                 run_seconds = ?6 WHERE id = ?1",
-                params![
-                    id,
-                    end.status,
-                    end.error,
-                    end.stats,
-                    end.finished_at,
-                    end.run_seconds
-                ],
-            )?;
-            // The checkpoint only serves a resume; an ended job has none,
-            // and its pages go back to the file system.
-            tx.execute(
-                "DELETE FROM checkpoints WHERE job = (SELECT seq FROM jobs WHERE id = ?1)",
-                [id],
-            )?;
-            tx.commit()?;
-            super::schema::reclaim(c)
-        })
-    }
-
-    /// A running job was stopped by a shutdown: queued again, to resume.
-    pub fn requeue(&self, id: JobId, run_seconds: f64) -> Result<()> {
+    /// At start: every running job was this process's (one machine, one
+    /// node), interrupted by a crash; it is queued again, to resume from
+    /// its checkpoint. Returns how many jobs wait.
+    pub fn recover(&self, _node: &str) -> Result<usize> {
         self.write(|c| {
             c.execute(
-                "UPDATE jobs SET status = 'queued', run_seconds = ?2 WHERE id = ?1",
-                params![id, run_seconds],
+                "UPDATE jobs SET status = 'queued', node = NULL, lease_until = NULL
+                 WHERE status = 'running'",
+                [],
+            )?;
+            c.query_row(
+                "SELECT COUNT(*) FROM jobs WHERE status = 'queued'",
+                [],
+                |r| r.get::<_, i64>(0),
             )
-            .map(drop)
+            .map(|n| n.max(0) as usize)
+        })
+    }
+
+    /// Marks running job `id` to be cancelled by its worker.
+    pub fn request_cancel(&self, id: JobId) -> Result<bool> {
+        self.write(|c| {
+            let n = c.execute(
+                "UPDATE jobs SET cancel_requested = 1 WHERE id = ?1 AND status = 'running'",
+                [id],
+            )?;
+            Ok(n == 1)
         })
     }
 
@@ -228,7 +125,7 @@ impl Store {
     }
 }
 
-fn job_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<JobRow> {
+pub(super) fn job_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<JobRow> {
     Ok(JobRow {
         seq: r.get(0)?,
         id: r.get(1)?,
@@ -245,6 +142,8 @@ fn job_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<JobRow> {
         attempts: r.get::<_, i64>(12)? as u32,
         error: r.get(13)?,
         stats: r.get(14)?,
+        node: r.get(15)?,
+        cancel_requested: r.get(16)?,
     })
 }
 
@@ -283,18 +182,21 @@ mod tests {
             [c, a]
         );
         assert_eq!(ids(s.list(None, None, Some(seq(c)), 1).expect("list")), [b]);
-        assert!(s.mark_running(b, 2.0).expect("run"));
-        assert!(
-            !s.mark_running(b, 2.0).expect("run"),
-            "only a queued job starts"
-        );
+        let claimed = |s: &Sqlite| s.claim("n1", 10.0).expect("claim").map(|r| r.id);
+        assert_eq!(claimed(&s), Some(a), "the oldest queued job first");
+        assert_eq!(claimed(&s), Some(b));
+        let row = s.job(b).expect("read").expect("exists");
+        assert_eq!((row.status, row.attempts), (Status::Running, 1));
+        assert_eq!(row.node.as_deref(), Some("n1"));
         assert_eq!(
             ids(s.list(None, Some(Status::Running), None, 10).expect("list")),
-            [b]
+            [b, a]
         );
-        assert!(s.cancel_queued(a, 3.0).expect("cancel"));
+        assert!(s.cancel_queued(c, 3.0).expect("cancel"));
         assert!(!s.cancel_queued(b, 3.0).expect("cancel"), "b is running");
-        assert_eq!(ids(s.unfinished().expect("unfinished")), [b, c]);
+        assert_eq!(claimed(&s), None, "nothing is queued");
+        assert_eq!(s.recover("n1").expect("recover"), 2, "a and b wait again");
+        assert_eq!(s.job(a).expect("read").expect("exists").node, None);
         assert_eq!(s.job(JobId::generate()).expect("read"), None);
     }
 
@@ -303,9 +205,11 @@ mod tests {
         let s = temp_store();
         let id = JobId::generate();
         s.insert_job(&new_job(id, "")).expect("insert");
+        assert!(s.claim("n1", 10.0).expect("claim").is_some());
         s.finish(
+            "n1",
             id,
-            &Ending {
+            &crate::service::store::Ending {
                 status: Status::Failed,
                 error: Some(r#"{"code":"non_finite","message":"NaN"}"#),
                 stats: Some(r#"{"steps":3}"#),

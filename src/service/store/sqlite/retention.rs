@@ -3,11 +3,11 @@
 
 use rusqlite::{OptionalExtension, params};
 
-use super::db::{Result, Store};
+use super::db::{Result, Sqlite};
 use super::schema::reclaim;
 use crate::service::job::JobId;
 
-impl Store {
+impl Sqlite {
     /// Deletes an ended job with its frames and checkpoint, and gives the
     /// space back; `false` if there is no such ended job (a queued or
     /// running one is never deleted).
@@ -93,6 +93,7 @@ impl Store {
 
     /// The database's size in pages in use and free: what deleting a job
     /// gives back shows here (and in the file's size).
+    #[cfg(test)]
     pub fn pages(&self) -> Result<(u64, u64)> {
         self.read(|c| {
             let count: i64 = c.pragma_query_value(None, "page_count", |r| r.get(0))?;
@@ -105,13 +106,14 @@ impl Store {
 #[cfg(test)]
 mod tests {
     use super::super::db::temp_store;
-    use super::super::frames::StoredFrame;
-    use super::super::jobs::{Ending, new_job};
+    use super::super::jobs::new_job;
     use super::*;
     use crate::service::job::Status;
+    use crate::service::store::{Ending, StoredFrame};
 
-    fn end(s: &Store, id: JobId, at: f64) {
+    fn end(s: &Sqlite, id: JobId, at: f64) {
         s.finish(
+            "n",
             id,
             &Ending {
                 status: Status::Succeeded,
@@ -132,6 +134,7 @@ mod tests {
         let before = s.pages().expect("pages").0;
         let id = JobId::generate();
         s.insert_job(&new_job(id, "")).expect("insert");
+        assert!(s.claim("n", 10.0).expect("claim").is_some());
         for n in 0..8 {
             let f = StoredFrame {
                 n,
@@ -139,7 +142,7 @@ mod tests {
                 positions: vec![7; 128 << 10],
                 stats: "{}".into(),
             };
-            s.put_frame(id, &f, Some(&[1; 1000])).expect("frame");
+            s.put_frame("n", id, &f, Some(&[1; 1000])).expect("frame");
         }
         assert!(s.stored_bytes(id, Some(7)).expect("bytes") >= 8 * (128 << 10));
         assert!(s.stored_bytes(id, None).expect("bytes") < 128 << 10);
@@ -164,6 +167,7 @@ mod tests {
         let ids: Vec<JobId> = (0..4).map(|_| JobId::generate()).collect();
         for (k, id) in ids.iter().enumerate() {
             s.insert_job(&new_job(*id, "")).expect("insert");
+            assert!(s.claim("n", 10.0).expect("claim").is_some());
             if k < 3 {
                 end(&s, *id, 10.0 * k as f64);
             }

@@ -2,40 +2,40 @@
 
 use rusqlite::{OptionalExtension, params};
 
-use super::db::{Result, Store, StoreError};
+use super::db::{Result, Sqlite};
 use crate::service::job::JobId;
-
-/// One stored frame.
-#[derive(Debug, Clone)]
-pub struct StoredFrame {
-    pub n: u64,
-    pub time: f64,
-    /// f32 xyz per particle, little-endian.
-    pub positions: Vec<u8>,
-    /// The frame's statistics, JSON.
-    pub stats: String,
-}
+use crate::service::store::{StoreError, StoredFrame};
 
 /// The `seq` of job `id`, for the tables keyed by it.
 const SEQ_OF: &str = "(SELECT seq FROM jobs WHERE id = ?1)";
 
-impl Store {
-    /// Stores frame `f` (replacing an earlier copy: a resumed job redoes
-    /// the frames after its checkpoint, identically) and, with it, the
+impl Sqlite {
+    /// Stores frame `f` of the job node `node` runs, and with it the
     /// checkpoint if one is given.
-    pub fn put_frame(&self, id: JobId, f: &StoredFrame, checkpoint: Option<&[u8]>) -> Result<()> {
-        self.write(|c| {
+    pub fn put_frame(
+        &self,
+        node: &str,
+        id: JobId,
+        f: &StoredFrame,
+        checkpoint: Option<&[u8]>,
+    ) -> Result<()> {
+        let held = self.write(|c| {
             let tx = c.transaction()?;
-            let seq: i64 =
-                tx.query_row("SELECT seq FROM jobs WHERE id = ?1", [id], |r| r.get(0))?;
+            let seq: Option<i64> = tx
+                .query_row(
+                    "UPDATE jobs SET frames_done = MAX(frames_done, ?3)
+                     WHERE id = ?1 AND node = ?2 AND status = 'running' RETURNING seq",
+                    params![id, node, f.n as i64 + 1],
+                    |r| r.get(0),
+                )
+                .optional()?;
+            let Some(seq) = seq else {
+                return Ok(false);
+            };
             tx.execute(
                 "INSERT OR REPLACE INTO frames (job, n, time, positions, stats)
                  VALUES (?1, ?2, ?3, ?4, ?5)",
                 params![seq, f.n as i64, f.time, f.positions, f.stats],
-            )?;
-            tx.execute(
-                "UPDATE jobs SET frames_done = MAX(frames_done, ?2) WHERE seq = ?1",
-                params![seq, f.n as i64 + 1],
             )?;
             if let Some(data) = checkpoint {
                 tx.execute(
@@ -43,8 +43,10 @@ impl Store {
                     params![seq, f.n as i64, data],
                 )?;
             }
-            tx.commit()
-        })
+            tx.commit()?;
+            Ok(true)
+        })?;
+        held.then_some(()).ok_or(StoreError::LeaseLost(id))
     }
 
     /// Frame `n` of a job.
@@ -118,9 +120,10 @@ fn frame_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<StoredFrame> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::jobs::{Ending, new_job};
+    use super::super::jobs::new_job;
     use super::*;
     use crate::service::job::Status;
+    use crate::service::store::Ending;
 
     fn frame(n: u64) -> StoredFrame {
         StoredFrame {
@@ -136,14 +139,20 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("drapery-store-{}", uuid::Uuid::now_v7()));
         let id = JobId::generate();
         {
-            let s = Store::open(&dir).expect("opens");
+            let s = Sqlite::open(&dir).expect("opens");
             s.insert_job(&new_job(id, "")).expect("insert");
-            s.put_frame(id, &frame(0), None).expect("frame");
-            s.put_frame(id, &frame(1), Some(b"cp1")).expect("frame");
+            assert!(s.claim("n", 10.0).expect("claim").is_some());
+            s.put_frame("n", id, &frame(0), None).expect("frame");
+            s.put_frame("n", id, &frame(1), Some(b"cp1"))
+                .expect("frame");
             // A redone frame replaces its copy and does not move the count back.
-            s.put_frame(id, &frame(0), None).expect("frame");
+            s.put_frame("n", id, &frame(0), None).expect("frame");
+            assert!(matches!(
+                s.put_frame("other", id, &frame(2), None),
+                Err(StoreError::LeaseLost(_))
+            ));
         }
-        let s = Store::open(&dir).expect("reopens");
+        let s = Sqlite::open(&dir).expect("reopens");
         let row = s.job(id).expect("read").expect("exists");
         assert_eq!(row.frames_done, 2);
         assert_eq!(
@@ -160,6 +169,7 @@ mod tests {
         assert_eq!(seen, [0, 1]);
         assert_eq!(s.frame_stats(id, 0).expect("read"), ["{}"]);
         s.finish(
+            "n",
             id,
             &Ending {
                 status: Status::Succeeded,
@@ -180,7 +190,10 @@ mod tests {
     #[test]
     fn a_frame_of_an_unknown_job_is_refused() {
         let s = super::super::db::temp_store();
-        assert!(s.put_frame(JobId::generate(), &frame(0), None).is_err());
+        assert!(
+            s.put_frame("n", JobId::generate(), &frame(0), None)
+                .is_err()
+        );
         assert!(s.frame(JobId::generate(), 0).expect("read").is_none());
     }
 }
