@@ -31,18 +31,6 @@ fn run(json: &str) -> (Vec<Vec<Vec3>>, Vec<FrameStats>) {
     (frames, stats)
 }
 
-/// RMS over particles and frames of the distance between two runs.
-fn rms(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0);
-    for (fa, fb) in a.iter().zip(b) {
-        for (p, q) in fa.iter().zip(fb) {
-            sum += (p - q).norm_squared();
-            n += 1;
-        }
-    }
-    (sum / n as f64).sqrt()
-}
-
 #[test]
 fn adaptive_steps_keep_their_error_and_tighter_requests_buy_accuracy() {
     let (reference, _) = run(&swing(r#""dt": 0.000130208333"#, "bdf2"));
@@ -65,7 +53,7 @@ fn adaptive_steps_keep_their_error_and_tighter_requests_buy_accuracy() {
                 );
             }
             let steps: usize = stats.iter().map(|s| s.steps).sum();
-            let truth = rms(&frames, &reference);
+            let truth = common::rms(&frames, &reference);
             // A local control cannot bound the global error (errors made
             // early are carried and amplified by the swing), but it keeps
             // it within an order of magnitude of the 15 frames' requests

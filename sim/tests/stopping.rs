@@ -33,18 +33,6 @@ fn run(json: &str) -> (Vec<Vec<Vec3>>, usize) {
     (frames, iterations)
 }
 
-/// RMS over particles and frames of the distance between two runs.
-fn rms(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0);
-    for (fa, fb) in a.iter().zip(b) {
-        for (p, q) in fa.iter().zip(fb) {
-            sum += (p - q).norm_squared();
-            n += 1;
-        }
-    }
-    (sum / n as f64).sqrt()
-}
-
 #[test]
 fn the_error_rule_leaves_a_small_part_of_the_time_error_for_fewer_iterations() {
     let h = 1.0 / 120.0;
@@ -54,8 +42,8 @@ fn the_error_rule_leaves_a_small_part_of_the_time_error_for_fewer_iterations() {
         let (ruled, ruled_its) = run(&swing(h, integrator, "error"));
         // The step's time error, to within the factor 2^p / (2^p - 1)
         // Richardson puts on the difference of a step and its half.
-        let time_error = rms(&tight, &half);
-        let solver_error = rms(&ruled, &tight);
+        let time_error = common::rms(&tight, &half);
+        let solver_error = common::rms(&ruled, &tight);
         eprintln!(
             "{integrator}: time error {time_error:.3e}, solver error {solver_error:.3e}, \
              CG iterations {ruled_its} against {tight_its}"

@@ -49,3 +49,15 @@ pub fn center_of_mass(x: &[Vec3], m: &[f64]) -> Vec3 {
 pub fn lowest_z(x: &[Vec3]) -> f64 {
     x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min)
 }
+
+/// RMS over particles and frames of the distance between two runs.
+pub fn rms(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0);
+    for (fa, fb) in a.iter().zip(b) {
+        for (p, q) in fa.iter().zip(fb) {
+            sum += (p - q).norm_squared();
+            n += 1;
+        }
+    }
+    (sum / n as f64).sqrt()
+}
