@@ -20,6 +20,7 @@ pub mod export;
 pub mod math;
 pub mod mesh;
 pub mod parallel;
+pub mod selfcollision;
 pub mod sim;
 pub mod solver;
 pub mod spec;

@@ -11,6 +11,7 @@ use super::step::{StepReport, step};
 use super::workspace::Workspace;
 use super::world::World;
 use crate::math::Real;
+use crate::selfcollision::SelfReport;
 use crate::solver::SolveStatus;
 use crate::spec::{IntegratorKind, TimeStepping};
 
@@ -54,6 +55,10 @@ pub struct FrameAccumulator {
     pub times: StageTimes,
     /// The last step's size.
     pub last_h: Real,
+    /// Self-collision's work, summed (`failsafe` unused).
+    pub self_collision: SelfReport,
+    /// Steps that needed self-collision's fail-safe stop.
+    pub self_failsafe_steps: usize,
 }
 
 impl FrameAccumulator {
@@ -65,6 +70,11 @@ impl FrameAccumulator {
         self.times.add(&r.times);
         self.last_h = h;
         self.error += r.error;
+        let s = &r.self_collision;
+        self.self_collision.contacts += s.contacts;
+        self.self_collision.collisions += s.collisions;
+        self.self_collision.zones += s.zones;
+        self.self_failsafe_steps += usize::from(s.failsafe);
     }
 }
 

@@ -152,6 +152,11 @@ impl Simulation {
                 .as_ref()
                 .map(|o| o.min_true_distance(x, self.run.state.time)),
             dt: 0.0,
+            self_contacts: 0,
+            self_collisions: 0,
+            impact_zones: 0,
+            self_failsafe_steps: 0,
+            self_collision_seconds: 0.0,
         }
     }
 
@@ -198,6 +203,11 @@ impl Simulation {
             redone_solves: counters.redone,
             step_seconds: start.elapsed().as_secs_f64(),
             dt: acc.last_h,
+            self_contacts: acc.self_collision.contacts,
+            self_collisions: acc.self_collision.collisions,
+            impact_zones: acc.self_collision.zones,
+            self_failsafe_steps: acc.self_failsafe_steps,
+            self_collision_seconds: acc.times.get(super::stage::Stage::SelfCollision),
             ..self.snapshot_stats()
         };
         if let Some(p) = control.progress {
@@ -262,6 +272,7 @@ impl Simulation {
         if let Some(o) = &self.world.obstacles {
             rec.set_obstacle_offsets(o.offsets());
         }
+        rec.set_cloth_thickness(self.world.scene.cloth.self_thickness);
         rec
     }
 }

@@ -25,11 +25,14 @@ pub enum Stage {
     /// The path taken is tested; the step is accepted (contacts released,
     /// friction switched) or redone with the new contacts.
     CollisionResolve,
+    /// The accepted motion is kept from passing the cloth through itself
+    /// (`selfcollision`).
+    SelfCollision,
 }
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 7] = [
+    pub const ALL: [Stage; 8] = [
         Stage::Constrain,
         Stage::CollisionPrepare,
         Stage::Assemble,
@@ -37,6 +40,7 @@ impl Stage {
         Stage::Solve,
         Stage::Update,
         Stage::CollisionResolve,
+        Stage::SelfCollision,
     ];
 
     /// The stage's name in traces and `stats.json`.
@@ -49,6 +53,7 @@ impl Stage {
             Stage::Solve => "solve",
             Stage::Update => "update",
             Stage::CollisionResolve => "collision_resolve",
+            Stage::SelfCollision => "self_collision",
         }
     }
 

@@ -54,6 +54,24 @@ pub struct FrameStats {
     pub min_signed_distance: Option<f64>,
     /// Last step size used, seconds.
     pub dt: f64,
+    /// Cloth–cloth pairs within the thickness that received a proximity
+    /// impulse during the frame (summed over steps).
+    #[serde(default)]
+    pub self_contacts: usize,
+    /// Cloth–cloth collisions found by the continuous tests and answered
+    /// by impulses during the frame.
+    #[serde(default)]
+    pub self_collisions: usize,
+    /// Rigid impact zones formed during the frame.
+    #[serde(default)]
+    pub impact_zones: usize,
+    /// Steps of the frame that needed the fail-safe stop (every free
+    /// particle kept where it was).
+    #[serde(default)]
+    pub self_failsafe_steps: usize,
+    /// Self-collision wall time during the frame, seconds.
+    #[serde(default)]
+    pub self_collision_seconds: f64,
 }
 
 /// A whole run's statistics (`stats.json`).
@@ -100,6 +118,19 @@ pub struct RunStats {
     pub redone_solves: usize,
     /// Each obstacle's collision offset `delta`, metres.
     pub obstacle_offsets: Vec<f64>,
+    /// The thickness cloth layers keep (`cloth.thickness` or its default),
+    /// metres; `None` with self-collision off.
+    pub cloth_thickness: Option<f64>,
+    /// Cloth–cloth proximity impulses over the run.
+    pub self_contacts: usize,
+    /// Cloth–cloth collisions answered by impulses over the run.
+    pub self_collisions: usize,
+    /// Rigid impact zones over the run.
+    pub impact_zones: usize,
+    /// Steps that needed self-collision's fail-safe stop.
+    pub self_failsafe_steps: usize,
+    /// Self-collision wall time, seconds.
+    pub self_collision_seconds: f64,
     /// Smallest signed distance to a true obstacle surface over all frames
     /// (negative = inside); `None` without obstacles.
     pub min_signed_distance: Option<f64>,
@@ -147,6 +178,12 @@ impl StatsRecorder {
                 nodes_visited: 0,
                 redone_solves: 0,
                 obstacle_offsets: Vec::new(),
+                cloth_thickness: None,
+                self_contacts: 0,
+                self_collisions: 0,
+                impact_zones: 0,
+                self_failsafe_steps: 0,
+                self_collision_seconds: 0.0,
                 min_signed_distance: None,
                 max_stretch: 0.0,
                 max_stretch_any_frame: 0.0,
@@ -176,6 +213,11 @@ impl StatsRecorder {
         s.contacts_released += f.released_contacts;
         s.nodes_visited += f.nodes_visited;
         s.redone_solves += f.redone_solves;
+        s.self_contacts += f.self_contacts;
+        s.self_collisions += f.self_collisions;
+        s.impact_zones += f.impact_zones;
+        s.self_failsafe_steps += f.self_failsafe_steps;
+        s.self_collision_seconds += f.self_collision_seconds;
         s.min_signed_distance = match (s.min_signed_distance, f.min_signed_distance) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -190,6 +232,11 @@ impl StatsRecorder {
     /// Records the obstacles' collision offsets.
     pub fn set_obstacle_offsets(&mut self, offsets: Vec<f64>) {
         self.stats.obstacle_offsets = offsets;
+    }
+
+    /// Records the thickness cloth layers keep.
+    pub fn set_cloth_thickness(&mut self, thickness: Option<f64>) {
+        self.stats.cloth_thickness = thickness;
     }
 
     /// Marks the run as having produced non-finite numbers.

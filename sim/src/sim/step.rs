@@ -22,7 +22,8 @@ use super::workspace::Workspace;
 use super::world::World;
 use crate::collision::{CollisionStage, StepFrame, Verdict};
 use crate::math::Real;
-use crate::solver::{self, Scheme, SolveReport};
+use crate::selfcollision::SelfReport;
+use crate::solver::{self, Filter, Scheme, SolveReport};
 use crate::spec::IntegratorKind;
 
 /// Redos of one step's solve when particles cross a surface mid-step;
@@ -39,6 +40,8 @@ pub struct StepReport {
     /// The embedded estimate of the step's local position error, RMS
     /// over the unconstrained particles, metres (`solver::local_error`).
     pub error: Real,
+    /// What self-collision did.
+    pub self_collision: SelfReport,
 }
 
 /// Advances `run` by one step of `h`.
@@ -61,7 +64,7 @@ pub fn step(
         h,
         scheme,
     };
-    if world.obstacles.is_some() {
+    if world.obstacles.is_some() || ws.self_collision.is_some() {
         ws.step_start.clone_from(&run.state);
     }
     let mut clock = StageClock::default();
@@ -153,6 +156,9 @@ pub fn step(
                     &ws.moved,
                     &ws.constraints,
                 );
+                let self_collision = clock.run(Stage::SelfCollision, || {
+                    keep_apart(ws, &frame, &mut run.state)
+                });
                 // BDF2's memory: this step's motion, before the warm start
                 // is corrected below.
                 run.last_moved.clone_from(&ws.moved);
@@ -166,6 +172,7 @@ pub fn step(
                 return Ok(StepReport {
                     solve,
                     error,
+                    self_collision,
                     times: clock.times(),
                 });
             }
@@ -175,4 +182,28 @@ pub fn step(
             }
         }
     }
+}
+
+/// The self-collision stage: the accepted motion `ws.moved` from
+/// `ws.step_start` corrected so the cloth does not pass through itself;
+/// particles held by pins or obstacle contacts do not yield.
+fn keep_apart(
+    ws: &mut Workspace,
+    frame: &StepFrame<'_>,
+    state: &mut crate::solver::ClothState,
+) -> SelfReport {
+    let Some(sc) = &mut ws.self_collision else {
+        return SelfReport::default();
+    };
+    for (held, f) in ws.held.iter_mut().zip(&ws.constraints.filter) {
+        *held = *f != Filter::Free;
+    }
+    sc.resolve(
+        &ws.step_start.x,
+        frame.mass,
+        &ws.held,
+        frame.h,
+        state,
+        &mut ws.moved,
+    )
 }

@@ -4,6 +4,7 @@
 use super::state::RunState;
 use super::world::World;
 use crate::collision::CollisionScratch;
+use crate::selfcollision::SelfCollision;
 use crate::solver::{ClothState, Constraints, Integrator};
 
 /// The buffers of a simulation.
@@ -23,6 +24,10 @@ pub struct Workspace {
     pub rollback: Vec<RunState>,
     /// Each particle's displacement in the step being taken.
     pub moved: Vec<crate::math::Vec3>,
+    /// The cloth's self-collision (`None` when the scene turns it off).
+    pub self_collision: Option<SelfCollision>,
+    /// Which particles are held (pinned or on an obstacle) this step.
+    pub held: Vec<bool>,
 }
 
 impl Workspace {
@@ -38,6 +43,12 @@ impl Workspace {
             step_start: state.state.clone(),
             rollback: Vec::new(),
             moved: vec![crate::math::Vec3::zeros(); n],
+            self_collision: world
+                .scene
+                .cloth
+                .self_thickness
+                .map(|t| SelfCollision::new(&world.grid, t)),
+            held: vec![false; n],
         }
     }
 

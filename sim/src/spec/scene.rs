@@ -57,6 +57,8 @@ pub struct ClothScene {
     pub pin_group: Vec<Option<usize>>,
     /// The motions of moving pin groups.
     pub pin_motions: Vec<super::Motion>,
+    /// Self-collision's thickness, metres; `None`: no self-collision.
+    pub self_thickness: Option<Real>,
 }
 
 /// Solver settings with defaults applied.

@@ -156,6 +156,15 @@ pub struct ClothSpec {
     /// Particles held in place (`[i, j]`) or moving with a group.
     #[serde(default)]
     pub pinned: Vec<PinEntry>,
+    /// The distance layers of cloth keep from each other, metres; default
+    /// a tenth of the finer grid spacing, at most a quarter of it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thickness: Option<f64>,
+    /// Whether the cloth is kept from passing through itself. Off by
+    /// default for now: the response still stretches some scenes' cloth
+    /// (ARCHITECTURE.md, "Self-collision").
+    #[serde(default)]
+    pub self_collision: bool,
 }
 
 /// Solver settings; every field has a default.

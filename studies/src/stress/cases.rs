@@ -82,6 +82,8 @@ fn cloth(n: u32, origin: [f64; 3], pinned: Vec<PinEntry>) -> ClothSpec {
         u: None,
         v: None,
         pinned,
+        thickness: None,
+        self_collision: false,
     }
 }
 

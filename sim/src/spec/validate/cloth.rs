@@ -100,6 +100,7 @@ pub(super) fn validate_cloth(spec: &Spec, limits: &Limits, c: &mut Check) -> Opt
     }
     let pinned = pins.iter().map(|p| p.0).collect();
     let pin_group = pins.iter().map(|p| p.1).collect();
+    let self_thickness = thickness(cl, c);
     let (origin, u, v) = (origin?, u?, v?);
     ok.then_some(ClothScene {
         nu,
@@ -111,5 +112,32 @@ pub(super) fn validate_cloth(spec: &Spec, limits: &Limits, c: &mut Check) -> Opt
         pinned,
         pin_group,
         pin_motions,
+        self_thickness: self_thickness?,
     })
+}
+
+/// `cloth.thickness` against the grid's finer spacing (selfcollision's
+/// default and bound); `Some(None)` when self-collision is off.
+fn thickness(cl: &crate::spec::types::ClothSpec, c: &mut Check) -> Option<Option<f64>> {
+    use crate::selfcollision::{MAX_THICKNESS_SHARE, THICKNESS_SHARE};
+    let spacing = (0..2)
+        .map(|k| cl.size[k] / (f64::from(cl.grid[k].max(2)) - 1.0))
+        .fold(f64::INFINITY, f64::min);
+    let Some(t) = cl.thickness else {
+        return Some(cl.self_collision.then_some(THICKNESS_SHARE * spacing));
+    };
+    let most = MAX_THICKNESS_SHARE * spacing;
+    if !c.range("cloth.thickness", t, true, f64::INFINITY) {
+        return None;
+    }
+    if spacing.is_finite() && t > most {
+        c.fail(
+            "cloth.thickness",
+            format!(
+                "{t} m exceeds a quarter of the grid spacing ({most:.6} m): neighbouring particles would push each other apart"
+            ),
+        );
+        return None;
+    }
+    Some(cl.self_collision.then_some(t))
 }

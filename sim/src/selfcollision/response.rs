@@ -1,0 +1,366 @@
+//! The response to cloth–cloth contact, after the implicit solve, on the
+//! step's average velocity `u = (x1 - x0) / h` (Bridson, Fedkiw & Anderson
+//! 2002, §7), in three passes each guaranteeing more than the one before:
+//!
+//! | pass | does |
+//! | --- | --- |
+//! | proximity | pairs within `thickness` at the start, or predicted to end inside it: an inelastic impulse stops their approach, a repulsion recovers a tenth of the overlap per step (a displacement only: the end velocity does not keep it), friction takes tangential velocity in proportion to the normal impulse (Coulomb) |
+//! | collisions | continuous tests of every nearby pair over `x0 + t h u`; each hit gets an inelastic impulse, in a fixed order, for [`COLLISION_SWEEPS`] sweeps |
+//! | impact zones | pairs still colliding merge their particles into zones, each moved as one rigid body (linear and angular momentum kept, Provot 1997); repeated until no pair collides |
+//!
+//! A rigid zone cannot intersect itself: its motion `x0 + t h (v + ω ×
+//! r)` is an invertible affine map of the start for every `t` (its linear
+//! part `I + t h [ω]×` has determinant `1 + t² h² |ω|² > 0`), and the start
+//! has no crossings; zones grow until no pair between them collides
+//! either. If [`MAX_ZONE_ROUNDS`] rounds do not end it, every free particle
+//! keeps its start position (the start had no crossings): the fail-safe of
+//! the fail-safe, counted in the report.
+//!
+//! Particles that are held (pins, obstacle contacts: `held`) do not yield
+//! to impulses, and weigh [`HELD_WEIGHT`] times their mass in a zone, so
+//! the cloth gives way around them rather than pushing them into an
+//! obstacle or off their pin.
+
+use super::ccd::{Closest, Kind, Moving, closest};
+use super::topology::ClothMesh;
+use crate::math::{Mat3, Real, Vec3};
+
+/// Sweeps of inelastic collision impulses before impact zones.
+pub const COLLISION_SWEEPS: usize = 4;
+/// Rounds of zone merging before the fail-safe stop.
+pub const MAX_ZONE_ROUNDS: usize = 64;
+/// How much heavier a held particle is in a rigid zone.
+const HELD_WEIGHT: Real = 1e4;
+/// Distance, as a share of the thickness, within which coplanar features
+/// count as touching (the continuous tests' tolerance).
+const COLLISION_PAD: Real = 0.01;
+/// Share of the overlap with the thickness recovered per step.
+const REPULSION: Real = 0.1;
+
+/// What one resolution did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SelfReport {
+    /// Pairs that received a proximity (repulsion, friction) impulse.
+    pub contacts: usize,
+    /// Collisions found by the continuous test and answered by impulses.
+    pub collisions: usize,
+    /// Rigid impact zones formed.
+    pub zones: usize,
+    /// Whether the fail-safe stop was needed.
+    pub failsafe: bool,
+}
+
+/// Inputs of one resolution.
+#[derive(Debug, Clone, Copy)]
+pub struct Motion<'a> {
+    /// Positions at the start of the step (without crossings).
+    pub x0: &'a [Vec3],
+    /// Lumped masses.
+    pub mass: &'a [Real],
+    /// Particles that do not yield (pinned or resting on an obstacle).
+    pub held: &'a [bool],
+    /// The step.
+    pub h: Real,
+    /// The cloth's thickness: the distance the layers keep.
+    pub thickness: Real,
+    /// Coulomb friction between layers.
+    pub friction: Real,
+}
+
+/// The buffers of the response, reused across steps.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    /// The part of each particle's change of `u` that only separates
+    /// layers (positions, not velocities).
+    separation: Vec<Vec3>,
+    vf: Vec<(u32, u32)>,
+    ee: Vec<(u32, u32)>,
+    end: Vec<Vec3>,
+    zone: Vec<u32>,
+}
+
+/// A pair's four particles.
+fn particles(mesh: &ClothMesh, kind: Kind, a: u32, b: u32) -> [usize; 4] {
+    match kind {
+        Kind::VertexFace => {
+            let t = mesh.triangles[b as usize];
+            [a as usize, t[0] as usize, t[1] as usize, t[2] as usize]
+        }
+        Kind::EdgeEdge => {
+            let (e, f) = (mesh.edges[a as usize], mesh.edges[b as usize]);
+            [e[0], e[1], f[0], f[1]].map(|k| k as usize)
+        }
+    }
+}
+
+/// Applies the impulse that changes the pair's relative velocity by
+/// `want`, shared by inverse mass and weight (`Δu_k = c_k w_k J`, `J =
+/// want / Σ c_k² w_k`); nothing if every particle is held.
+fn apply(u: &mut [Vec3], idx: &[usize; 4], c: &[Real; 4], w: &[Real; 4], want: &Vec3) {
+    let weight: Real = (0..4).map(|k| c[k] * c[k] * w[k]).sum();
+    if weight <= 0.0 {
+        return;
+    }
+    let j = want / weight;
+    for k in 0..4 {
+        u[idx[k]] += j * (c[k] * w[k]);
+    }
+}
+
+fn relative(u: &[Vec3], idx: &[usize; 4], c: &[Real; 4]) -> Vec3 {
+    (0..4).map(|k| u[idx[k]] * c[k]).sum()
+}
+
+impl Scratch {
+    /// Changes the average velocities `u` so that `x0 + h u` keeps the
+    /// cloth apart from itself.
+    pub fn resolve(&mut self, mesh: &mut ClothMesh, m: &Motion<'_>, u: &mut [Vec3]) -> SelfReport {
+        let mut report = SelfReport::default();
+        self.separation.clear();
+        self.separation.resize(u.len(), Vec3::zeros());
+        let inv_mass: Vec<Real> = m
+            .mass
+            .iter()
+            .zip(m.held)
+            .map(|(&ms, &held)| if held || ms <= 0.0 { 0.0 } else { 1.0 / ms })
+            .collect();
+        self.proximity(mesh, m, &inv_mass, u, &mut report);
+        // The proximity pass's pairs were gathered with the thickness as
+        // pad; while every particle's new path stays inside its box less
+        // the collision pad, they are every pair the collision test needs.
+        let eta = COLLISION_PAD * m.thickness;
+        self.end_positions(m, u);
+        let mut fresh = mesh.holds(&self.end, 0.5 * eta);
+        for _ in 0..COLLISION_SWEEPS {
+            if !fresh {
+                self.gather(mesh, m, u, eta);
+            }
+            fresh = false;
+            let hits = self.collisions(mesh, m, u, |idx, cl, u| {
+                let w = idx.map(|k| inv_mass[k]);
+                let n = cl.gap.normalize();
+                let vn = relative(u, idx, &cl.c).dot(&n);
+                if vn < 0.0 {
+                    apply(u, idx, &cl.c, &w, &(n * -vn));
+                }
+            });
+            report.collisions += hits;
+            if hits == 0 {
+                return report;
+            }
+        }
+        self.zones(mesh, m, u, &mut report);
+        report
+    }
+
+    /// The proximity pass (Bridson et al. §7.2): one Gauss–Seidel sweep
+    /// over the pairs in their fixed order.
+    fn proximity(
+        &mut self,
+        mesh: &mut ClothMesh,
+        m: &Motion<'_>,
+        inv_mass: &[Real],
+        u: &mut [Vec3],
+        report: &mut SelfReport,
+    ) {
+        self.gather(mesh, m, u, m.thickness);
+        let lists = [(Kind::VertexFace, &self.vf), (Kind::EdgeEdge, &self.ee)];
+        for (kind, pairs) in lists {
+            for &(a, b) in pairs.iter() {
+                let idx = particles(mesh, kind, a, b);
+                // Grid neighbours come close only by shearing, which the
+                // cloth's own forces answer: repelling them would fight
+                // shear (the collision passes still stop them crossing).
+                if mesh.grid_neighbours(kind, &idx) {
+                    continue;
+                }
+                let x = idx.map(|k| m.x0[k]);
+                let cl = closest(kind, &x);
+                // An edge pair closest at an end is a vertex near a
+                // triangle's edge: the vertex-face pairs answer it.
+                if kind == Kind::EdgeEdge && cl.c.contains(&0.0) {
+                    continue;
+                }
+                let g0 = cl.gap.norm();
+                if g0 <= 1e-12 * m.thickness {
+                    continue; // no direction to push along
+                }
+                let n = cl.gap / g0;
+                let rel = relative(u, &idx, &cl.c);
+                let vn = rel.dot(&n);
+                let g1 = g0 + m.h * vn;
+                let target = if g0 >= m.thickness {
+                    m.thickness
+                } else {
+                    g0 + REPULSION * (m.thickness - g0)
+                };
+                if g1 >= target {
+                    continue;
+                }
+                let dvn = (target - g1) / m.h;
+                // Stopping the approach is a velocity change; the rest
+                // moves the layers apart without leaving them moving
+                // apart (otherwise a short step's large `1/h` would throw
+                // them).
+                let stop = dvn.min((-vn).max(0.0));
+                let tangent = rel - n * vn;
+                let slide = tangent.norm();
+                let keep = if slide > 0.0 {
+                    (1.0 - m.friction * dvn / slide).max(0.0)
+                } else {
+                    1.0
+                };
+                let want = n * dvn - tangent * (1.0 - keep);
+                let w = idx.map(|k| inv_mass[k]);
+                apply(u, &idx, &cl.c, &w, &want);
+                apply(&mut self.separation, &idx, &cl.c, &w, &(n * (dvn - stop)));
+                report.contacts += 1;
+            }
+        }
+    }
+
+    /// The part of the last resolution's change of `u` that separates
+    /// layers without being a velocity.
+    pub fn separation(&self) -> &[Vec3] {
+        &self.separation
+    }
+
+    /// The pairs whose paths under `u` come within `pad`.
+    fn gather(&mut self, mesh: &mut ClothMesh, m: &Motion<'_>, u: &[Vec3], pad: Real) {
+        self.end_positions(m, u);
+        mesh.refit(m.x0, &self.end, pad);
+        mesh.vertex_face_pairs(&mut self.vf);
+        mesh.edge_edge_pairs(&mut self.ee);
+    }
+
+    fn end_positions(&mut self, m: &Motion<'_>, u: &[Vec3]) {
+        self.end.clear();
+        self.end
+            .extend(m.x0.iter().zip(u).map(|(x, u)| x + u * m.h));
+    }
+
+    /// Tests every gathered pair over the step with the current `u` and
+    /// calls `hit` on each collision, in the fixed pair order; returns how
+    /// many there were.
+    fn collisions(
+        &self,
+        mesh: &ClothMesh,
+        m: &Motion<'_>,
+        u: &mut [Vec3],
+        mut hit: impl FnMut(&[usize; 4], &Closest, &mut [Vec3]),
+    ) -> usize {
+        let eta = COLLISION_PAD * m.thickness;
+        let mut hits = 0;
+        let lists = [(Kind::VertexFace, &self.vf), (Kind::EdgeEdge, &self.ee)];
+        for (kind, pairs) in lists {
+            for &(a, b) in pairs.iter() {
+                let idx = particles(mesh, kind, a, b);
+                let moving = Moving {
+                    x: idx.map(|k| m.x0[k]),
+                    d: idx.map(|k| u[k] * m.h),
+                };
+                if let Some((_, cl)) = moving.first_contact(kind, eta) {
+                    // The direction that separates them is the one they
+                    // had at the start.
+                    let start = closest(kind, &moving.x);
+                    if start.gap.norm() > 0.0 {
+                        hits += 1;
+                        let cl = Closest {
+                            c: cl.c,
+                            gap: start.gap,
+                        };
+                        hit(&idx, &cl, &mut *u);
+                    }
+                }
+            }
+        }
+        hits
+    }
+
+    /// Rigid impact zones until no pair collides.
+    fn zones(
+        &mut self,
+        mesh: &mut ClothMesh,
+        m: &Motion<'_>,
+        u: &mut [Vec3],
+        report: &mut SelfReport,
+    ) {
+        let n = u.len();
+        self.zone.clear();
+        self.zone.extend(0..n as u32);
+        for _ in 0..MAX_ZONE_ROUNDS {
+            self.gather(mesh, m, u, COLLISION_PAD * m.thickness);
+            let mut zone = std::mem::take(&mut self.zone);
+            let hits = self.collisions(mesh, m, u, |idx, _, _| {
+                for k in 1..4 {
+                    union(&mut zone, idx[0], idx[k]);
+                }
+            });
+            self.zone = zone;
+            if hits == 0 {
+                return;
+            }
+            report.zones = rigidify(&mut self.zone, m, u);
+        }
+        report.failsafe = true;
+        for (k, uk) in u.iter_mut().enumerate() {
+            if !m.held[k] {
+                *uk = Vec3::zeros();
+            }
+        }
+    }
+}
+
+fn find(zone: &mut [u32], mut a: usize) -> usize {
+    while zone[a] as usize != a {
+        let up = zone[zone[a] as usize];
+        zone[a] = up;
+        a = up as usize;
+    }
+    a
+}
+
+fn union(zone: &mut [u32], a: usize, b: usize) {
+    let (ra, rb) = (find(zone, a), find(zone, b));
+    // The smaller index is the root: the zones do not depend on the order
+    // of the unions.
+    let (lo, hi) = (ra.min(rb), ra.max(rb));
+    zone[hi] = lo as u32;
+}
+
+/// Replaces the velocities of every zone of more than one particle by the
+/// rigid motion with the same linear and angular momentum; returns the
+/// number of such zones.
+fn rigidify(zone: &mut [u32], m: &Motion<'_>, u: &mut [Vec3]) -> usize {
+    let n = u.len();
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for k in 0..n {
+        let r = find(zone, k);
+        members[r].push(k);
+    }
+    let weight = |k: usize| m.mass[k] * if m.held[k] { HELD_WEIGHT } else { 1.0 };
+    let mut zones = 0;
+    for group in members.iter().filter(|g| g.len() > 1) {
+        zones += 1;
+        let total: Real = group.iter().map(|&k| weight(k)).sum();
+        let xc: Vec3 = group.iter().map(|&k| m.x0[k] * weight(k)).sum::<Vec3>() / total;
+        let vc: Vec3 = group.iter().map(|&k| u[k] * weight(k)).sum::<Vec3>() / total;
+        let mut l = Vec3::zeros();
+        let mut inertia = Mat3::zeros();
+        for &k in group {
+            let r = m.x0[k] - xc;
+            l += r.cross(&(u[k] - vc)) * weight(k);
+            inertia += (Mat3::identity() * r.norm_squared() - r * r.transpose()) * weight(k);
+        }
+        // Collinear zones have no inertia about their line: a small
+        // isotropic part keeps the inverse finite and that spin zero.
+        let reg = Mat3::identity() * (1e-9 * inertia.trace()).max(Real::MIN_POSITIVE);
+        let omega = (inertia + reg)
+            .try_inverse()
+            .map_or(Vec3::zeros(), |i| i * l);
+        for &k in group {
+            u[k] = vc + omega.cross(&(m.x0[k] - xc));
+        }
+    }
+    zones
+}

@@ -1,0 +1,201 @@
+//! Scenes that must fold onto themselves, checked for the exact count of
+//! cloth edges passing through cloth triangles at every frame (zero), for
+//! finite numbers and bounded stretch, and for penetration of obstacles.
+
+mod common;
+
+use common::scene_from_json;
+use drapery_sim::cloth::Grid;
+use drapery_sim::math::Vec3;
+use drapery_sim::selfcollision::{ClothMesh, count_crossings};
+use drapery_sim::sim::{Control, Simulation};
+
+struct Outcome {
+    /// Crossings at each frame.
+    crossings: Vec<usize>,
+    /// Largest edge stretch over the frames.
+    stretch: f64,
+    /// Smallest signed distance to an obstacle over the frames.
+    min_distance: Option<f64>,
+    /// Self-collision impulses over the run.
+    self_work: usize,
+    last: Vec<Vec3>,
+}
+
+fn run(json: &str) -> Outcome {
+    let scene = scene_from_json(json);
+    let grid = Grid::new(&scene.cloth, scene.material.density);
+    let mut mesh = ClothMesh::new(&grid);
+    let mut sim = Simulation::new(&scene).expect("scene builds");
+    let mut out = Outcome {
+        crossings: vec![count_crossings(&mut mesh, &sim.state().x)],
+        stretch: 1.0,
+        min_distance: None,
+        self_work: 0,
+        last: Vec::new(),
+    };
+    while !sim.is_done() {
+        let f = sim.advance_frame(&Control::default()).expect("frame");
+        let x = &sim.state().x;
+        assert!(
+            x.iter().all(|p| p.iter().all(|c| c.is_finite())),
+            "frame {}",
+            f.frame
+        );
+        out.crossings.push(count_crossings(&mut mesh, x));
+        out.stretch = out.stretch.max(f.max_stretch);
+        out.min_distance = match (out.min_distance, f.min_signed_distance) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        out.self_work += f.self_contacts + f.self_collisions;
+    }
+    out.last = sim.state().x.clone();
+    out
+}
+
+fn assert_apart(name: &str, o: &Outcome) {
+    let bad: Vec<(usize, usize)> = o
+        .crossings
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| **c > 0)
+        .map(|(f, c)| (f, *c))
+        .collect();
+    assert!(bad.is_empty(), "{name}: (frame, crossings) {bad:?}");
+    // The scenes are built to fold: self-collision must have worked.
+    assert!(o.self_work > 0, "{name}: no self contact at all");
+}
+
+/// A silk strip, one short edge held, the other turned about the long
+/// axis once a second while it moves a third of the way in (without the
+/// slack a twist must stretch the strip's edges): it twists, then coils
+/// onto itself.
+#[test]
+fn twisted_strip_never_passes_through_itself() {
+    let fixed: Vec<String> = (0..6).map(|j| format!("[0, {j}]")).collect();
+    let turned: Vec<String> = (0..6).map(|j| format!("[29, {j}]")).collect();
+    let json = format!(
+        r#"{{
+        "cloth": {{"self_collision": true, "grid": [30, 6], "size": [1.0, 0.2], "origin": [-0.5, -0.1, 0.5],
+                   "pinned": [{}, {{"particles": [{}],
+                     "motion": {{"velocity": [-0.2, 0, 0], "angular_velocity": [6.283185307, 0, 0],
+                                 "pivot": [0.5, 0, 0.5]}}}}]}},
+        "material": "silk", "gravity": [0, 0, -9.81], "duration": 1.5, "fps": 30,
+        "solver": {{"dt": 0.004166666666666667}}
+    }}"#,
+        fixed.join(", "),
+        turned.join(", ")
+    );
+    let o = run(&json);
+    assert_apart("twisted strip", &o);
+    assert!(o.stretch < 1.10, "stretch {}", o.stretch);
+}
+
+/// A cotton curtain whose top edge is lowered onto the floor: it piles in
+/// folds on itself.
+#[test]
+fn curtain_lowered_onto_a_floor_piles_without_crossing() {
+    let top: Vec<String> = (0..16).map(|i| format!("[{i}, 0]")).collect();
+    let json = format!(
+        r#"{{
+        "cloth": {{"self_collision": true, "grid": [16, 16], "size": [0.8, 0.8], "origin": [-0.4, 0, 0.85],
+                   "u": [1, 0, 0], "v": [0, 0, -1],
+                   "pinned": [{{"particles": [{}], "motion": {{"keyframes": [
+                       {{"time": 0, "translation": [0, 0, 0]}},
+                       {{"time": 1.2, "translation": [0, 0.05, -0.8]}}]}}}}]}},
+        "material": "cotton",
+        "obstacles": [{{"plane": {{"point": [0, 0, 0], "normal": [0, 0, 1]}}, "friction": 0.5}}],
+        "gravity": [0, 0, -9.81], "duration": 1.8, "fps": 30,
+        "solver": {{"dt": 0.004166666666666667}}
+    }}"#,
+        top.join(", ")
+    );
+    let o = run(&json);
+    assert_apart("curtain", &o);
+    // NOTE: no stretch bound here yet: the pile's impact zones stretch it
+    // (33 % at worst today; the open part of issue 15).
+    assert!(
+        o.min_distance.expect("floor") > -1e-3,
+        "{:?}",
+        o.min_distance
+    );
+    // It piled: the cloth ends within a few thicknesses of the floor.
+    let highest = o.last.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+    assert!(highest < 0.2, "highest particle at {highest}");
+}
+
+/// A 60 x 60 cotton square over a small sphere: the skirt falls in deep
+/// folds that touch.
+#[test]
+fn drape_over_a_small_sphere_at_60_squared_keeps_its_folds_apart() {
+    let json = r#"{
+        "cloth": {"self_collision": true, "grid": [60, 60], "size": [1.0, 1.0], "origin": [-0.5, -0.5, 0.2]},
+        "material": "cotton",
+        "obstacles": [{"sphere": {"center": [0, 0, 0], "radius": 0.12}, "friction": 0.4}],
+        "gravity": [0, 0, -9.81], "duration": 1.0, "fps": 30,
+        "solver": {"dt": 0.004166666666666667}
+    }"#;
+    let o = run(json);
+    assert_apart("small sphere", &o);
+    assert!(
+        o.min_distance.expect("sphere") > -1e-3,
+        "{:?}",
+        o.min_distance
+    );
+    assert!(o.stretch < 1.05, "stretch {}", o.stretch);
+}
+
+/// A cloth dropped across a thin rod: both halves swing under it and
+/// meet.
+#[test]
+fn cloth_dropped_onto_a_thin_rod_hangs_without_crossing() {
+    let json = r#"{
+        "cloth": {"self_collision": true, "grid": [30, 30], "size": [0.8, 0.8], "origin": [-0.4, -0.4, 0.1]},
+        "material": "silk",
+        "obstacles": [{"cylinder": {"center": [0, 0, 0], "axis": [0, 1, 0], "radius": 0.01,
+                                    "height": 1.2}, "friction": 0.6}],
+        "gravity": [0, 0, -9.81], "duration": 1.5, "fps": 30,
+        "solver": {"dt": 0.004166666666666667}
+    }"#;
+    let o = run(json);
+    assert_apart("rod", &o);
+    assert!(o.min_distance.expect("rod") > -1e-3, "{:?}", o.min_distance);
+}
+
+/// The thickness defaults to a tenth of the finer spacing, is stated in
+/// the scene, and a bad one is refused naming `cloth.thickness`.
+#[test]
+fn thickness_defaults_from_the_spacing_and_bad_values_are_refused() {
+    use drapery_sim::spec::{Limits, Spec};
+    let spec = |extra: &str| -> Spec {
+        serde_json::from_str(&format!(
+            r#"{{"cloth": {{"grid": [11, 21], "size": [1, 1]{extra}}},
+                "material": "cotton", "duration": 1, "fps": 10}}"#
+        ))
+        .expect("parses")
+    };
+    let limits = Limits::default();
+    let off = spec("").validate(&limits).expect("valid");
+    assert_eq!(off.cloth.self_thickness, None);
+    let on = spec(r#", "self_collision": true"#)
+        .validate(&limits)
+        .expect("valid");
+    let t = on.cloth.self_thickness.expect("on");
+    assert!((t - 0.1 * 0.05).abs() < 1e-15, "{t}");
+    let given = spec(r#", "self_collision": true, "thickness": 0.01"#)
+        .validate(&limits)
+        .expect("valid");
+    assert_eq!(given.cloth.self_thickness, Some(0.01));
+    for bad in ["0", "-1", "0.02"] {
+        let errors = spec(&format!(r#", "self_collision": true, "thickness": {bad}"#))
+            .validate(&limits)
+            .expect_err("refused")
+            .0;
+        assert_eq!(
+            errors.iter().map(|e| e.path.as_str()).collect::<Vec<_>>(),
+            ["cloth.thickness"],
+            "{bad}"
+        );
+    }
+}
