@@ -28,4 +28,4 @@ pub use pose::{Pose, Trajectory};
 pub use scratch::{CollisionCounters, CollisionScratch};
 pub use stage::{CollisionStage, StepFrame, Verdict};
 pub use surface::{Hit, Projection, Surface};
-pub use triangle::{Feature, PlaneHit, closest_point, segment_hit};
+pub use triangle::{Feature, PlaneHit, Region, closest_point, closest_region, segment_hit};

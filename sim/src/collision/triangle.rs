@@ -75,9 +75,73 @@ pub enum Feature {
     Vertex(u8),
 }
 
-/// The point of triangle `tri` closest to `p`, and its feature (Ericson,
-/// "Real-Time Collision Detection", 5.1.5).
-pub fn closest_point(p: &Vec3, tri: &[Vec3; 3]) -> (Vec3, Feature) {
+/// Where on a triangle `[a, b, c]` the point closest to some point lies,
+/// with the parameters Ericson's region walk computes for it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Region {
+    /// Corner `k`.
+    Vertex(u8),
+    /// `a + (b - a) v` on edge 0.
+    EdgeAb(Real),
+    /// `b + (c - b) w` on edge 1.
+    EdgeBc(Real),
+    /// `a + (c - a) w` on edge 2.
+    EdgeCa(Real),
+    /// `a + (b - a) v + (c - a) w` inside.
+    Face(Real, Real),
+}
+
+impl Region {
+    /// The part of the triangle it is on.
+    pub fn feature(self) -> Feature {
+        match self {
+            Region::Vertex(k) => Feature::Vertex(k),
+            Region::EdgeAb(_) => Feature::Edge(0),
+            Region::EdgeBc(_) => Feature::Edge(1),
+            Region::EdgeCa(_) => Feature::Edge(2),
+            Region::Face(..) => Feature::Face,
+        }
+    }
+
+    /// The point itself.
+    pub fn point(self, tri: &[Vec3; 3]) -> Vec3 {
+        let [a, b, c] = *tri;
+        match self {
+            Region::Vertex(k) => tri[k as usize],
+            Region::EdgeAb(v) => a + (b - a) * v,
+            Region::EdgeBc(w) => b + (c - b) * w,
+            Region::EdgeCa(w) => a + (c - a) * w,
+            Region::Face(v, w) => a + (b - a) * v + (c - a) * w,
+        }
+    }
+
+    /// Its barycentric weights of `a`, `b`, `c` (non-negative, summing to
+    /// one); a degenerate (zero-area) triangle's face gives its first
+    /// corner.
+    pub fn weights(self) -> [Real; 3] {
+        let w = match self {
+            Region::Vertex(k) => {
+                let mut w = [0.0; 3];
+                w[k as usize] = 1.0;
+                w
+            }
+            Region::EdgeAb(v) => [1.0 - v, v, 0.0],
+            Region::EdgeBc(w) => [0.0, 1.0 - w, w],
+            Region::EdgeCa(w) => [1.0 - w, 0.0, w],
+            Region::Face(v, w) => [1.0 - v - w, v, w],
+        };
+        if w.iter().all(|x| x.is_finite()) {
+            w
+        } else {
+            [1.0, 0.0, 0.0]
+        }
+    }
+}
+
+/// The region of triangle `tri` holding the point closest to `p` (Ericson,
+/// "Real-Time Collision Detection", 5.1.5): vertex regions, then edge
+/// regions, then the face.
+pub fn closest_region(p: &Vec3, tri: &[Vec3; 3]) -> Region {
     let [a, b, c] = *tri;
     let ab = b - a;
     let ac = c - a;
@@ -85,39 +149,40 @@ pub fn closest_point(p: &Vec3, tri: &[Vec3; 3]) -> (Vec3, Feature) {
     let d1 = ab.dot(&ap);
     let d2 = ac.dot(&ap);
     if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, Feature::Vertex(0));
+        return Region::Vertex(0);
     }
     let bp = p - b;
     let d3 = ab.dot(&bp);
     let d4 = ac.dot(&bp);
     if d3 >= 0.0 && d4 <= d3 {
-        return (b, Feature::Vertex(1));
+        return Region::Vertex(1);
     }
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return (a + ab * v, Feature::Edge(0));
+        return Region::EdgeAb(d1 / (d1 - d3));
     }
     let cp = p - c;
     let d5 = ab.dot(&cp);
     let d6 = ac.dot(&cp);
     if d6 >= 0.0 && d5 <= d6 {
-        return (c, Feature::Vertex(2));
+        return Region::Vertex(2);
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return (a + ac * w, Feature::Edge(2));
+        return Region::EdgeCa(d2 / (d2 - d6));
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (b + (c - b) * w, Feature::Edge(1));
+        return Region::EdgeBc((d4 - d3) / ((d4 - d3) + (d5 - d6)));
     }
     let denom = 1.0 / (va + vb + vc);
-    let v = vb * denom;
-    let w = vc * denom;
-    (a + ab * v + ac * w, Feature::Face)
+    Region::Face(vb * denom, vc * denom)
+}
+
+/// The point of triangle `tri` closest to `p`, and its feature.
+pub fn closest_point(p: &Vec3, tri: &[Vec3; 3]) -> (Vec3, Feature) {
+    let r = closest_region(p, tri);
+    (r.point(tri), r.feature())
 }
 
 #[cfg(test)]

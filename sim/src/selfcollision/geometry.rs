@@ -3,55 +3,14 @@
 //! Detection*, §5.1.5 and §5.1.9), and the segment–triangle crossing test
 //! that defines "the cloth passes through itself".
 
+use crate::collision::closest_region;
 use crate::math::{Real, Vec3};
 
 /// The closest point of triangle `(a, b, c)` to `p` as barycentric weights
-/// `[wa, wb, wc]` (non-negative, summing to one). Ericson's region walk:
-/// vertex regions, then edge regions, then the face.
+/// `[wa, wb, wc]` (non-negative, summing to one): the obstacle tests' own
+/// region walk (`collision::closest_region`).
 pub fn point_triangle(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> [Real; 3] {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(&ap);
-    let d2 = ac.dot(&ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return [1.0, 0.0, 0.0];
-    }
-    let bp = p - b;
-    let d3 = ab.dot(&bp);
-    let d4 = ac.dot(&bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return [0.0, 1.0, 0.0];
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return [1.0 - v, v, 0.0];
-    }
-    let cp = p - c;
-    let d5 = ab.dot(&cp);
-    let d6 = ac.dot(&cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return [0.0, 0.0, 1.0];
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return [1.0 - w, 0.0, w];
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return [0.0, 1.0 - w, w];
-    }
-    let denom = va + vb + vc;
-    if denom.abs() <= Real::MIN_POSITIVE {
-        // A degenerate (zero-area) triangle: its first vertex.
-        return [1.0, 0.0, 0.0];
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    [1.0 - v - w, v, w]
+    closest_region(p, &[*a, *b, *c]).weights()
 }
 
 /// The closest points of segments `p1 q1` and `p2 q2` as parameters
