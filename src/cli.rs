@@ -360,6 +360,10 @@ pub struct StressArgs {
     /// Run only the cases whose name contains one of these.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
+    /// Run every case with this integrator (default: each case's own,
+    /// backward Euler).
+    #[arg(long)]
+    pub integrator: Option<drapery_sim::spec::IntegratorKind>,
 }
 
 /// A duration in seconds, as a decimal (`0.004`) or a fraction (`1/240`).

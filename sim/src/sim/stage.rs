@@ -22,6 +22,9 @@ pub enum Stage {
     Solve,
     /// `v += dv`, `x += p + h' v + y`, finiteness.
     Update,
+    /// BDF2: the residual of the nonlinear step at its end, for one
+    /// Newton correction (solved and applied by `Solve` and `Update`).
+    Correct,
     /// The path taken is tested; the step is accepted (contacts released,
     /// friction switched) or redone with the new contacts.
     CollisionResolve,
@@ -32,13 +35,14 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 9] = [
         Stage::Constrain,
         Stage::CollisionPrepare,
         Stage::Assemble,
         Stage::Precondition,
         Stage::Solve,
         Stage::Update,
+        Stage::Correct,
         Stage::CollisionResolve,
         Stage::SelfCollision,
     ];
@@ -52,6 +56,7 @@ impl Stage {
             Stage::Precondition => "precondition",
             Stage::Solve => "solve",
             Stage::Update => "update",
+            Stage::Correct => "correct",
             Stage::CollisionResolve => "collision_resolve",
             Stage::SelfCollision => "self_collision",
         }

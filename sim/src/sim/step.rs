@@ -64,7 +64,7 @@ pub fn step(
         h,
         scheme,
     };
-    if world.obstacles.is_some() || ws.self_collision.is_some() {
+    if world.obstacles.is_some() || ws.self_collision.is_some() || scheme.is_two_step() {
         ws.step_start.clone_from(&run.state);
     }
     let mut clock = StageClock::default();
@@ -124,6 +124,38 @@ pub fn step(
                 particle: e.particle,
                 quantity: e.quantity,
             })?;
+        if scheme.is_two_step() {
+            clock.run(Stage::Correct, || {
+                ws.integrator.correct(
+                    &physics,
+                    &run.state,
+                    &ws.constraints,
+                    &scheme,
+                    &mut run.warm_start,
+                )
+            });
+            iterations += solve.iterations;
+            solve = clock.run(Stage::Solve, || {
+                ws.integrator.solve(&ws.constraints, &mut run.warm_start)
+            });
+            run.state.clone_from(&ws.step_start);
+            clock
+                .run(Stage::Update, || {
+                    solver::update(
+                        &mut run.state,
+                        &run.warm_start,
+                        &ws.constraints,
+                        &scheme,
+                        &mut ws.moved,
+                    )
+                })
+                .map_err(|e| SimError::NonFinite {
+                    step: run.steps,
+                    time: frame.time,
+                    particle: e.particle,
+                    quantity: e.quantity,
+                })?;
+        }
         iterations += solve.iterations;
         solve.iterations = iterations;
         let verdict = match &world.obstacles {

@@ -15,10 +15,15 @@ pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
         (4..=1000).contains(&args.size),
         "--size: between 4 and 1000"
     );
-    let cases: Vec<_> = stress::cases(args.size)
+    let mut cases: Vec<_> = stress::cases(args.size)
         .into_iter()
         .filter(|c| args.only.is_empty() || args.only.iter().any(|o| c.name.contains(o.as_str())))
         .collect();
+    if let Some(integrator) = args.integrator {
+        for case in &mut cases {
+            case.spec.solver.integrator = integrator;
+        }
+    }
     anyhow::ensure!(!cases.is_empty(), "--only: no case matches");
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
