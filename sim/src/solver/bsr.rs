@@ -103,6 +103,18 @@ impl BlockCsr {
         });
     }
 
+    /// The slots (positions in `values`) of row `i`'s entries.
+    #[inline]
+    pub fn row_slots(&self, i: usize) -> std::ops::Range<usize> {
+        self.row_ptr[i]..self.row_ptr[i + 1]
+    }
+
+    /// The column of slot `s`.
+    #[inline]
+    pub fn column(&self, s: usize) -> usize {
+        self.col[s] as usize
+    }
+
     /// The entries of row `i` as `(column, block)`.
     pub fn row(&self, i: usize) -> impl Iterator<Item = (usize, &Mat3)> {
         (self.row_ptr[i]..self.row_ptr[i + 1]).map(move |k| (self.col[k] as usize, &self.values[k]))

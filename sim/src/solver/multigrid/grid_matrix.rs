@@ -35,7 +35,15 @@ pub struct GridMatrix {
     /// `values[node * offsets.len() + k]`: the block coupling `node` to
     /// `node + offsets[k]` (zero where that neighbour does not exist).
     values: Vec<Block>,
+    /// For each slot of the cloth matrix last given to
+    /// [`Self::set_prefiltered`], where its block goes in `values`
+    /// ([`NOWHERE`] for an offset the stencil lacks): the pattern is fixed,
+    /// so the grid arithmetic is done once.
+    from_csr: Vec<u32>,
 }
+
+/// A slot with no place in the stencil.
+const NOWHERE: u32 = u32::MAX;
 
 impl GridMatrix {
     /// A zero matrix on an `nu x nv` grid with couplings at `offsets`
@@ -58,6 +66,7 @@ impl GridMatrix {
             nv,
             offsets,
             slot,
+            from_csr: Vec::new(),
         }
     }
 
@@ -129,6 +138,11 @@ impl GridMatrix {
     }
 
     /// Every block, node by node.
+    pub fn values(&self) -> &[Block] {
+        &self.values
+    }
+
+    /// Every block, node by node, to write.
     pub fn values_mut(&mut self) -> &mut [Block] {
         &mut self.values
     }
@@ -145,22 +159,22 @@ impl GridMatrix {
     /// the filtered system MPCG solves; the blocked directions decouple,
     /// held invertible at the matrix's own scale.
     pub fn set_prefiltered(&mut self, a: &BlockCsr, filter: &[Filter]) {
-        let nu = self.nu;
+        if self.from_csr.len() != a.nnz() {
+            self.from_csr = self.places_of(a);
+        }
+        self.values.fill(Block::zeros());
         for p in 0..a.rows() {
-            let sp = filter[p].matrix();
             let free = filter[p] == Filter::Free;
-            let row_start = p * self.offsets.len();
-            for k in 0..self.offsets.len() {
-                self.values[row_start + k] = Block::zeros();
-            }
-            for (q, block) in a.row(p) {
-                let (di, dj) = offset(p, q, nu);
-                let Some(k) = self.offset_index(di, dj) else {
+            for s in a.row_slots(p) {
+                let at = self.from_csr[s];
+                if at == NOWHERE {
                     continue;
-                };
+                }
+                let (q, block) = (a.column(s), &a.values[s]);
                 let m: Mat3 = if free && filter[q] == Filter::Free {
                     *block
                 } else {
+                    let sp = filter[p].matrix();
                     let mut m = sp * block * filter[q].matrix();
                     if p == q {
                         let scale = (block.trace().abs() / 3.0).max(f64::MIN_POSITIVE);
@@ -168,9 +182,24 @@ impl GridMatrix {
                     }
                     m
                 };
-                self.values[row_start + k] = m.cast::<f32>();
+                self.values[at as usize] = m.cast::<f32>();
             }
         }
+    }
+
+    /// Where each slot of `a` goes in `values` ([`NOWHERE`] if its offset
+    /// is not in the stencil).
+    fn places_of(&self, a: &BlockCsr) -> Vec<u32> {
+        let k = self.offsets.len();
+        (0..a.rows())
+            .flat_map(|p| {
+                a.row_slots(p).map(move |s| {
+                    let (di, dj) = offset(p, a.column(s), self.nu);
+                    self.offset_index(di, dj)
+                        .map_or(NOWHERE, |o| (p * k + o) as u32)
+                })
+            })
+            .collect()
     }
 
     /// `y = A x`.

@@ -45,16 +45,44 @@ pub struct LineFamily {
     width: usize,
     off_blocks: Vec<Block>,
     off_index: Vec<u32>,
-    /// Per node (in line order): the inverse of the diagonal Cholesky
-    /// factor and the factors coupling it to the previous node and the
-    /// one before, with their transposes for the backward substitution.
-    inv: Vec<Block>,
-    prev1: Vec<Block>,
-    prev2: Vec<Block>,
-    inv_t: Vec<Block>,
-    prev1_t: Vec<Block>,
-    prev2_t: Vec<Block>,
+    /// Where each of `off_blocks` is read from in the grid matrix's
+    /// values ([`MISSING`] for a neighbour off the grid): fixed by the
+    /// grid, so a refactorisation is a gather.
+    off_source: Vec<u32>,
+    /// Per node (in line order), its Cholesky factors.
+    factors: Vec<NodeFactor>,
 }
+
+/// A node's part of its line's block-banded Cholesky factor: the inverse
+/// of its diagonal factor and the factors coupling it to the previous
+/// node and the one before, with their transposes for the backward
+/// substitution.
+#[derive(Debug, Clone, Copy)]
+struct NodeFactor {
+    inv: Block,
+    prev1: Block,
+    prev2: Block,
+    inv_t: Block,
+    prev1_t: Block,
+    prev2_t: Block,
+}
+
+impl Default for NodeFactor {
+    fn default() -> Self {
+        let z = Block::zeros();
+        Self {
+            inv: z,
+            prev1: z,
+            prev2: z,
+            inv_t: z,
+            prev1_t: z,
+            prev2_t: z,
+        }
+    }
+}
+
+/// An off-line neighbour outside the grid.
+const MISSING: u32 = u32::MAX;
 
 /// Scratch of a sweep: one buffer per line, so the lines of a colour can
 /// be solved at once.
@@ -71,7 +99,7 @@ impl LineFamily {
             Direction::V => (a.nu, a.nv),
         };
         let n = a.len();
-        let nodes = (0..lines)
+        let nodes: Vec<u32> = (0..lines)
             .flat_map(|l| {
                 (0..len).map(move |t| match direction {
                     Direction::U => (t + l * a.nu) as u32,
@@ -79,11 +107,32 @@ impl LineFamily {
                 })
             })
             .collect();
-        let width = a
+        let off: Vec<usize> = a
             .offsets()
             .iter()
-            .filter(|&&(di, dj)| !on_line(direction, di, dj))
-            .count();
+            .enumerate()
+            .filter(|&(_, &(di, dj))| !on_line(direction, di, dj))
+            .map(|(k, _)| k)
+            .collect();
+        let width = off.len();
+        let stride = a.offsets().len();
+        let (mut off_index, mut off_source) = (Vec::with_capacity(n * width), Vec::new());
+        for &p in &nodes {
+            let p = p as usize;
+            let (i, j) = (p % a.nu, p / a.nu);
+            for &slot in &off {
+                match a.neighbour(i, j, slot) {
+                    Some(q) => {
+                        off_index.push(q as u32);
+                        off_source.push((p * stride + slot) as u32);
+                    }
+                    None => {
+                        off_index.push(p as u32);
+                        off_source.push(MISSING);
+                    }
+                }
+            }
+        }
         let mut f = Self {
             direction,
             lines,
@@ -91,13 +140,9 @@ impl LineFamily {
             nodes,
             width,
             off_blocks: vec![Block::zeros(); n * width],
-            off_index: vec![0; n * width],
-            inv: vec![Block::zeros(); n],
-            prev1: vec![Block::zeros(); n],
-            prev2: vec![Block::zeros(); n],
-            inv_t: vec![Block::zeros(); n],
-            prev1_t: vec![Block::zeros(); n],
-            prev2_t: vec![Block::zeros(); n],
+            off_index,
+            off_source,
+            factors: vec![NodeFactor::default(); n],
         };
         f.factor(a);
         f
@@ -116,73 +161,50 @@ impl LineFamily {
         let k1 = a.offset_index(-sx, -sy);
         let k2 = a.offset_index(-2 * sx, -2 * sy);
         let k0 = a.offset_index(0, 0);
-        let off: Vec<(usize, i32, i32)> = a
-            .offsets()
-            .iter()
-            .enumerate()
-            .filter(|&(_, &(di, dj))| !on_line(dir, di, dj))
-            .map(|(k, &(di, dj))| (k, di, dj))
-            .collect();
-        let nodes = &self.nodes;
-        let width = self.width;
         // Couplings to other lines, node by node.
-        parallel::for_chunks2(
-            &mut self.off_blocks,
-            &mut self.off_index,
-            |start, blocks, index| {
-                for (s, (b, ix)) in blocks.iter_mut().zip(index.iter_mut()).enumerate() {
-                    let (node, k) = ((start + s) / width, (start + s) % width);
-                    let p = nodes[node] as usize;
-                    let (i, j) = (p % a.nu, p / a.nu);
-                    let (slot, _, _) = off[k];
-                    match a.neighbour(i, j, slot) {
-                        Some(q) => {
-                            *b = a.row(p)[slot];
-                            *ix = q as u32;
-                        }
-                        None => {
-                            *b = Block::zeros();
-                            *ix = p as u32;
-                        }
-                    }
-                }
-            },
-        );
+        let values = a.values();
+        let source = &self.off_source;
+        parallel::for_chunks(&mut self.off_blocks, |start, blocks| {
+            for (b, &src) in blocks.iter_mut().zip(&source[start..]) {
+                *b = if src == MISSING {
+                    Block::zeros()
+                } else {
+                    values[src as usize]
+                };
+            }
+        });
         // Each line's Cholesky factors, lines in parallel.
+        let nodes = &self.nodes;
         let get = |p: usize, k: Option<usize>| k.map_or(Block::zeros(), |k| a.row(p)[k]);
-        let factors: Vec<[Block; 3]> = {
-            let mut out = vec![[Block::zeros(); 3]; nodes.len()];
-            parallel::for_rows(&mut out, len, |l, line| {
-                for t in 0..len {
-                    let p = nodes[l * len + t] as usize;
-                    let mut l2 = Block::zeros();
-                    let mut l1 = Block::zeros();
-                    let mut d = get(p, k0);
-                    if t >= 2 {
-                        l2 = get(p, k2) * line[t - 2][0].transpose();
-                        d -= l2 * l2.transpose();
-                    }
-                    if t >= 1 {
-                        let mut m = get(p, k1);
-                        if t >= 2 {
-                            m -= l2 * line[t - 1][1].transpose();
-                        }
-                        l1 = m * line[t - 1][0].transpose();
-                        d -= l1 * l1.transpose();
-                    }
-                    line[t] = [inverse_cholesky(&d, &get(p, k0)), l1, l2];
+        parallel::for_rows(&mut self.factors, len, |l, line| {
+            for t in 0..len {
+                let p = nodes[l * len + t] as usize;
+                let mut l2 = Block::zeros();
+                let mut l1 = Block::zeros();
+                let mut d = get(p, k0);
+                if t >= 2 {
+                    l2 = get(p, k2) * line[t - 2].inv_t;
+                    d -= l2 * l2.transpose();
                 }
-            });
-            out
-        };
-        for (s, [inv, p1, p2]) in factors.into_iter().enumerate() {
-            self.inv[s] = inv;
-            self.prev1[s] = p1;
-            self.prev2[s] = p2;
-            self.inv_t[s] = inv.transpose();
-            self.prev1_t[s] = p1.transpose();
-            self.prev2_t[s] = p2.transpose();
-        }
+                if t >= 1 {
+                    let mut m = get(p, k1);
+                    if t >= 2 {
+                        m -= l2 * line[t - 1].prev1_t;
+                    }
+                    l1 = m * line[t - 1].inv_t;
+                    d -= l1 * l1.transpose();
+                }
+                let inv = inverse_cholesky(&d, &get(p, k0));
+                line[t] = NodeFactor {
+                    inv,
+                    prev1: l1,
+                    prev2: l2,
+                    inv_t: inv.transpose(),
+                    prev1_t: l1.transpose(),
+                    prev2_t: l2.transpose(),
+                };
+            }
+        });
     }
 
     /// One relaxation of every line, colours in order (`forward`) or
@@ -225,25 +247,26 @@ impl LineFamily {
             for (m, &q) in blocks.iter().zip(index) {
                 acc -= m * x[q as usize];
             }
+            let f = &self.factors[s];
             if t >= 1 {
-                acc -= self.prev1[s] * out[t - 1];
+                acc -= f.prev1 * out[t - 1];
             }
             if t >= 2 {
-                acc -= self.prev2[s] * out[t - 2];
+                acc -= f.prev2 * out[t - 2];
             }
-            out[t] = self.inv[s] * acc;
+            out[t] = f.inv * acc;
         }
         // Lᵀ x = y.
         for t in (0..len).rev() {
             let s = at + t;
             let mut acc = out[t];
             if t + 1 < len {
-                acc -= self.prev1_t[s + 1] * out[t + 1];
+                acc -= self.factors[s + 1].prev1_t * out[t + 1];
             }
             if t + 2 < len {
-                acc -= self.prev2_t[s + 2] * out[t + 2];
+                acc -= self.factors[s + 2].prev2_t * out[t + 2];
             }
-            out[t] = self.inv_t[s] * acc;
+            out[t] = self.factors[s].inv_t * acc;
         }
     }
 }
