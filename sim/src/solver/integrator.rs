@@ -276,9 +276,12 @@ impl Integrator {
     /// in the scheme's nonlinear velocity law. The solve runs on the total
     /// change `dv + dv'`: `A1 (dv + dv') = b1 + A1 dv`, warm-started at
     /// `dv`, so constrained components keep their targets; this stage sets
-    /// it up (assembly at the end, the preconditioner kept from the first
-    /// solve: MPCG filters its output, so a lagged SPD preconditioner is
-    /// still valid) and [`Self::solve`] runs it.
+    /// it up (assembly at the end, the preconditioner rebuilt from `A1`)
+    /// and [`Self::solve`] runs it. A simplified Newton step reusing the
+    /// first `A` does not work: a spring that turned in the step has its
+    /// stiff residual along its new direction, which the old `A` partly
+    /// takes for a soft one (on hanging-corners most steps overstretched
+    /// and were redone as halves).
     ///
     /// Why: `A` holds the solver's positive semi-definite stiffness, which
     /// drops the buckling term of every compressed spring
@@ -316,8 +319,9 @@ impl Integrator {
                 *b += impulse[i] * gamma - dv[i] * mass[i] + product[i];
             }
         });
-        // NOTE: the first solve's preconditioner, lagged, doubled the
-        // correction's iterations on hanging-corners; rebuilt it costs less.
+        // NOTE: the first solve's preconditioner, lagged (valid, since MPCG
+        // filters its output), doubled the correction's iterations on
+        // hanging-corners; rebuilt, the correction costs less.
         self.precond.update(&self.system.a, &constraints.filter);
         self.options.error_bound = self.error_scale.map(|e| e * CORRECTION_SHARE);
         mpcg::start(&problem(&self.system, constraints), dv, &mut self.ws);
