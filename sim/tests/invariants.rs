@@ -14,6 +14,34 @@ use drapery_sim::solver::{
 };
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 
+/// One spring of stiffness `k` and rest length `rest` between particles 0
+/// and 1.
+fn one_spring(k: f64, rest: f64) -> ForceModel {
+    ForceModel {
+        stretch: Stretch {
+            springs: vec![Spring {
+                a: 0,
+                b: 1,
+                rest,
+                k,
+            }],
+        },
+        ..ForceModel::default()
+    }
+}
+
+/// An integrator over two particles of `model` with block Jacobi, solving
+/// to the residual `tolerance` from a zero start (no warm start).
+fn tight_integrator(model: &ForceModel, tolerance: f64) -> Integrator {
+    let options = MpcgOptions {
+        tolerance,
+        max_iterations: 100,
+        reference: None,
+        error_bound: None,
+    };
+    Integrator::from_parts(2, model, Box::<BlockJacobi>::default(), options, false)
+}
+
 /// A mass `m` on a spring of stiffness `k` along x, its anchor fixed
 /// through the constraint filter, started stretched by 0.05.
 struct Oscillator {
@@ -27,17 +55,7 @@ impl Oscillator {
     fn new() -> Self {
         let (k, m, rest) = (40.0, 0.1, 1.0);
         Self {
-            model: ForceModel {
-                stretch: Stretch {
-                    springs: vec![Spring {
-                        a: 0,
-                        b: 1,
-                        rest,
-                        k,
-                    }],
-                },
-                ..ForceModel::default()
-            },
+            model: one_spring(k, rest),
             mass: [1.0, m],
             rest,
             k,
@@ -47,18 +65,7 @@ impl Oscillator {
     /// The states `(x, v)` of the moving mass over `steps` steps of `h`,
     /// with BDF2 when `bdf2` (its first step backward Euler).
     fn run(&self, h: f64, steps: usize, bdf2: bool) -> Vec<(f64, f64)> {
-        let mut integrator = Integrator::from_parts(
-            2,
-            &self.model,
-            Box::<BlockJacobi>::default(),
-            MpcgOptions {
-                tolerance: 1e-12,
-                max_iterations: 100,
-                reference: None,
-                error_bound: None,
-            },
-            false,
-        );
+        let mut integrator = tight_integrator(&self.model, 1e-12);
         let mut c = Constraints::free(2);
         c.fix(0, Vec3::zeros(), Vec3::zeros());
         let mut state = ClothState {
@@ -253,17 +260,7 @@ fn energy_does_not_increase_without_external_work() {
 #[test]
 fn stiff_pendulum_converges_at_second_order_with_bdf2() {
     let (k, m, rest) = (1e4, 0.1, 1.0);
-    let model = ForceModel {
-        stretch: Stretch {
-            springs: vec![Spring {
-                a: 0,
-                b: 1,
-                rest,
-                k,
-            }],
-        },
-        ..ForceModel::default()
-    };
+    let model = one_spring(k, rest);
     let mass = [1.0, m];
     let physics = Physics {
         model: &model,
@@ -274,14 +271,7 @@ fn stiff_pendulum_converges_at_second_order_with_bdf2() {
     let run = |h: f64, bdf2: bool| -> Vec<Vec3> {
         let every = (0.05 / h).round() as usize;
         let mut samples = Vec::new();
-        let options = MpcgOptions {
-            tolerance: 1e-13,
-            max_iterations: 100,
-            reference: None,
-            error_bound: None,
-        };
-        let mut integrator =
-            Integrator::from_parts(2, &model, Box::<BlockJacobi>::default(), options, false);
+        let mut integrator = tight_integrator(&model, 1e-13);
         let mut c = Constraints::free(2);
         let mut state = ClothState {
             time: 0.0,
@@ -359,17 +349,7 @@ fn pendulum_residual(
 #[test]
 fn bdf2_newton_correction_cuts_the_linearisation_residual() {
     let (k, m, rest) = (1e4, 0.1, 1.0);
-    let model = ForceModel {
-        stretch: Stretch {
-            springs: vec![Spring {
-                a: 0,
-                b: 1,
-                rest,
-                k,
-            }],
-        },
-        ..ForceModel::default()
-    };
+    let model = one_spring(k, rest);
     let mass = [1.0, m];
     let g = Vec3::new(0.0, 0.0, -9.81);
     let physics = Physics {
@@ -377,14 +357,7 @@ fn bdf2_newton_correction_cuts_the_linearisation_residual() {
         mass: &mass,
         gravity: g,
     };
-    let options = MpcgOptions {
-        tolerance: 1e-13,
-        max_iterations: 100,
-        reference: None,
-        error_bound: None,
-    };
-    let mut integrator =
-        Integrator::from_parts(2, &model, Box::<BlockJacobi>::default(), options, false);
+    let mut integrator = tight_integrator(&model, 1e-13);
     let mut c = Constraints::free(2);
     let mut state = ClothState {
         time: 0.0,

@@ -21,9 +21,9 @@ use super::state::RunState;
 use super::workspace::Workspace;
 use super::world::World;
 use crate::collision::{CollisionStage, StepFrame, Verdict};
-use crate::math::Real;
+use crate::math::{Real, Vec3};
 use crate::selfcollision::SelfReport;
-use crate::solver::{self, Filter, Scheme, SolveReport};
+use crate::solver::{self, ClothState, Filter, Scheme, SolveReport};
 use crate::spec::IntegratorKind;
 
 /// Redos of one step's solve when particles cross a surface mid-step;
@@ -105,58 +105,42 @@ pub fn step(
                 &mut run.warm_start,
             )
         });
-        let mut solve = clock.run(Stage::Solve, || {
-            ws.integrator.solve(&ws.constraints, &mut run.warm_start)
-        });
-        clock
-            .run(Stage::Update, || {
-                solver::update(
-                    &mut run.state,
-                    &run.warm_start,
-                    &ws.constraints,
-                    &scheme,
-                    &mut ws.moved,
-                )
-            })
-            .map_err(|e| SimError::NonFinite {
-                step: run.steps,
-                time: frame.time,
-                particle: e.particle,
-                quantity: e.quantity,
-            })?;
-        if scheme.is_two_step() {
-            clock.run(Stage::Correct, || {
-                ws.integrator.correct(
-                    &physics,
-                    &run.state,
-                    &ws.constraints,
-                    &scheme,
-                    &mut run.warm_start,
-                )
-            });
-            iterations += solve.iterations;
-            solve = clock.run(Stage::Solve, || {
-                ws.integrator.solve(&ws.constraints, &mut run.warm_start)
-            });
-            run.state.clone_from(&ws.step_start);
-            clock
-                .run(Stage::Update, || {
-                    solver::update(
-                        &mut run.state,
-                        &run.warm_start,
+        // BDF2 linearises twice: the Newton correction re-assembles at the
+        // first solve's end and the step is redone from its start.
+        let passes = if scheme.is_two_step() { 2 } else { 1 };
+        let mut pass = 0;
+        let mut solve = loop {
+            if pass > 0 {
+                clock.run(Stage::Correct, || {
+                    ws.integrator.correct(
+                        &physics,
+                        &run.state,
                         &ws.constraints,
                         &scheme,
-                        &mut ws.moved,
+                        &mut run.warm_start,
                     )
-                })
-                .map_err(|e| SimError::NonFinite {
-                    step: run.steps,
-                    time: frame.time,
-                    particle: e.particle,
-                    quantity: e.quantity,
-                })?;
-        }
-        iterations += solve.iterations;
+                });
+                run.state.clone_from(&ws.step_start);
+            }
+            let solve = clock.run(Stage::Solve, || {
+                ws.integrator.solve(&ws.constraints, &mut run.warm_start)
+            });
+            iterations += solve.iterations;
+            clock.run(Stage::Update, || {
+                update(
+                    &mut run.state,
+                    &run.warm_start,
+                    ws,
+                    &scheme,
+                    run.steps,
+                    frame.time,
+                )
+            })?;
+            pass += 1;
+            if pass == passes {
+                break solve;
+            }
+        };
         solve.iterations = iterations;
         let verdict = match &world.obstacles {
             None => Verdict::Accept,
@@ -214,6 +198,27 @@ pub fn step(
             }
         }
     }
+}
+
+/// The update stage: `state` advanced by the solved velocity change `dv`
+/// (`solver::update`), a non-finite result named by the step's number and
+/// start time.
+fn update(
+    state: &mut ClothState,
+    dv: &[Vec3],
+    ws: &mut Workspace,
+    scheme: &Scheme<'_>,
+    step: usize,
+    time: Real,
+) -> Result<(), SimError> {
+    solver::update(state, dv, &ws.constraints, scheme, &mut ws.moved).map_err(|e| {
+        SimError::NonFinite {
+            step,
+            time,
+            particle: e.particle,
+            quantity: e.quantity,
+        }
+    })
 }
 
 /// The self-collision stage: the accepted motion `ws.moved` from
