@@ -22,7 +22,7 @@
 
 use super::bsr::BlockCsr;
 use super::constraints::Filter;
-use super::multigrid::{Direction, GridMatrix, LineFamily, LineScratch, Vec3f};
+use super::multigrid::{Direction, Entry, GridMatrix, LineFamily, LineScratch, Vec3f};
 use super::precond::Preconditioner;
 use crate::math::Vec3;
 
@@ -81,10 +81,10 @@ impl Preconditioner for AlternatingLines {
         self.x.clear();
         self.x.resize(r.len(), Vec3f::zeros());
         let s = &mut self.scratch;
-        warp.sweep(&self.b, &mut self.x, true, s);
-        weft.sweep(&self.b, &mut self.x, true, s);
-        weft.sweep(&self.b, &mut self.x, false, s);
-        warp.sweep(&self.b, &mut self.x, false, s);
+        warp.sweep(&self.b, &mut self.x, true, Entry::Zero, s);
+        weft.sweep(&self.b, &mut self.x, true, Entry::Any, s);
+        weft.sweep(&self.b, &mut self.x, false, Entry::AfterReverse, s);
+        warp.sweep(&self.b, &mut self.x, false, Entry::Any, s);
         for (o, x) in out.iter_mut().zip(&self.x) {
             *o = x.cast::<f64>();
         }

@@ -19,7 +19,7 @@
 
 use super::dense::DenseCholesky;
 use super::grid_matrix::{Block, GridMatrix, Vec3f, to_f32};
-use super::lines::{Direction, LineFamily, LineScratch};
+use super::lines::{Direction, Entry, LineFamily, LineScratch};
 use super::transfer::Transfer;
 use crate::math::Vec3;
 use crate::solver::{BlockCsr, Filter, Preconditioner};
@@ -145,9 +145,12 @@ impl Multigrid {
             let level = &mut self.levels[k];
             level.x.fill(Vec3f::zeros());
             let s = &mut self.scratch;
-            for _ in 0..self.shape.sweeps {
-                level.warp.sweep(&level.b, &mut level.x, true, s);
-                level.weft.sweep(&level.b, &mut level.x, true, s);
+            for sweep in 0..self.shape.sweeps {
+                let entry = if sweep == 0 { Entry::Zero } else { Entry::Any };
+                level.warp.sweep(&level.b, &mut level.x, true, entry, s);
+                level
+                    .weft
+                    .sweep(&level.b, &mut level.x, true, Entry::Any, s);
             }
         }
         for _ in 0..self.shape.coarse_cycles {
@@ -166,8 +169,12 @@ impl Multigrid {
         let level = &mut self.levels[k];
         let s = &mut self.scratch;
         for _ in 0..self.shape.sweeps {
-            level.weft.sweep(&level.b, &mut level.x, false, s);
-            level.warp.sweep(&level.b, &mut level.x, false, s);
+            level
+                .weft
+                .sweep(&level.b, &mut level.x, false, Entry::Any, s);
+            level
+                .warp
+                .sweep(&level.b, &mut level.x, false, Entry::Any, s);
         }
     }
 }

@@ -18,6 +18,10 @@
 //! smoother.
 
 use super::grid_matrix::{Block, GridMatrix, Vec3f};
+use super::lanes::{
+    BlockLanes, LANES, VecLanes, ZERO_BLOCK, ZERO_VEC, get_vec, mul, mul_t, set_block, set_vec,
+    sub_mul, sub_mul_t,
+};
 use crate::parallel;
 
 /// The lines' direction.
@@ -29,66 +33,75 @@ pub enum Direction {
     V,
 }
 
-/// One family of lines with its factors. Everything a sweep reads is
-/// stored in line order (node `t` of line `l` at `l * len + t`), so a
-/// line's data is contiguous whichever way it runs through the grid.
+/// One family of lines with its factors. Lines of one colour are solved
+/// [`LANES`] at a time, as a *pack*: packs are numbered colour by colour,
+/// and everything a sweep reads is stored per pack and node along the
+/// line (`pack * len + t`), one lane per line, so a pack's data is
+/// contiguous whichever way its lines run through the grid. Lanes past a
+/// colour's last line are padding: zero blocks, never written back.
 #[derive(Debug, Clone)]
 pub struct LineFamily {
     direction: Direction,
-    lines: usize,
     len: usize,
-    /// Grid index of each node, in line order.
-    nodes: Vec<u32>,
-    /// Per node (in line order), its couplings to other lines: `width`
-    /// blocks and the grid indices they multiply; a missing neighbour has
-    /// a zero block and the node's own index, so the gather has no branch.
+    /// The first pack of each colour, and the end of the last.
+    colour_start: [usize; 4],
+    /// The line in each lane of each pack ([`MISSING`]: padding).
+    pack_lines: Vec<u32>,
+    /// Grid index of each lane's node, per pack and node (padding: 0).
+    nodes: Vec<[u32; LANES]>,
+    /// Per pack and node, its couplings to other lines: `width` blocks
+    /// and the grid indices they multiply; a missing neighbour has a zero
+    /// block and the node's own index, so the gather has no branch.
     width: usize,
-    off_blocks: Vec<Block>,
-    off_index: Vec<u32>,
-    /// Where each of `off_blocks` is read from in the grid matrix's
-    /// values ([`MISSING`] for a neighbour off the grid): fixed by the
-    /// grid, so a refactorisation is a gather.
-    off_source: Vec<u32>,
-    /// Per node (in line order), its Cholesky factors.
+    off_blocks: Vec<BlockLanes>,
+    off_index: Vec<[u32; LANES]>,
+    /// Where each lane of `off_blocks` is read from in the grid matrix's
+    /// values ([`MISSING`] for a neighbour off the grid or a padding
+    /// lane): fixed by the grid, so a refactorisation is a gather.
+    off_source: Vec<[u32; LANES]>,
+    /// Per pack and node, its Cholesky factors.
     factors: Vec<NodeFactor>,
 }
 
-/// A node's part of its line's block-banded Cholesky factor: the inverse
-/// of its diagonal factor and the factors coupling it to the previous
-/// node and the one before, with their transposes for the backward
-/// substitution.
+/// A node's part of its line's block-banded Cholesky factor, one lane per
+/// line of the pack: the inverse of its diagonal factor and the factors
+/// coupling it to the previous node and the one before. The backward
+/// substitution multiplies by their transposes, so none are stored twice.
 #[derive(Debug, Clone, Copy)]
 struct NodeFactor {
-    inv: Block,
-    prev1: Block,
-    prev2: Block,
-    inv_t: Block,
-    prev1_t: Block,
-    prev2_t: Block,
+    inv: BlockLanes,
+    prev1: BlockLanes,
+    prev2: BlockLanes,
 }
 
-impl Default for NodeFactor {
-    fn default() -> Self {
-        let z = Block::zeros();
-        Self {
-            inv: z,
-            prev1: z,
-            prev2: z,
-            inv_t: z,
-            prev1_t: z,
-            prev2_t: z,
-        }
-    }
+const ZERO_FACTOR: NodeFactor = NodeFactor {
+    inv: ZERO_BLOCK,
+    prev1: ZERO_BLOCK,
+    prev2: ZERO_BLOCK,
+};
+
+/// What a sweep may assume about `x` on entry, to skip work whose result
+/// it already knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Entry {
+    /// Nothing.
+    Any,
+    /// `x` is zero: the first colour's couplings to other lines vanish.
+    Zero,
+    /// The last thing done to `x` was this family's sweep in the opposite
+    /// order: it ended with the colour this one starts with, which is
+    /// therefore already relaxed against the values it would see.
+    AfterReverse,
 }
 
-/// An off-line neighbour outside the grid.
+/// An off-line neighbour outside the grid, or a padding lane.
 const MISSING: u32 = u32::MAX;
 
-/// Scratch of a sweep: one buffer per line, so the lines of a colour can
+/// Scratch of a sweep: one buffer per pack, so the packs of a colour can
 /// be solved at once.
 #[derive(Debug, Clone, Default)]
 pub struct LineScratch {
-    lines: Vec<Vec3f>,
+    packs: Vec<VecLanes>,
 }
 
 impl LineFamily {
@@ -98,15 +111,22 @@ impl LineFamily {
             Direction::U => (a.nv, a.nu),
             Direction::V => (a.nu, a.nv),
         };
-        let n = a.len();
-        let nodes: Vec<u32> = (0..lines)
-            .flat_map(|l| {
-                (0..len).map(move |t| match direction {
-                    Direction::U => (t + l * a.nu) as u32,
-                    Direction::V => (l + t * a.nu) as u32,
-                })
-            })
-            .collect();
+        let node = |l: usize, t: usize| match direction {
+            Direction::U => t + l * a.nu,
+            Direction::V => l + t * a.nu,
+        };
+        let mut colour_start = [0; 4];
+        let mut pack_lines = Vec::new();
+        for c in 0..3 {
+            colour_start[c] = pack_lines.len() / LANES;
+            let of_colour: Vec<u32> = (c..lines).step_by(3).map(|l| l as u32).collect();
+            for pack in of_colour.chunks(LANES) {
+                pack_lines.extend(pack);
+                pack_lines.resize(pack_lines.len() + LANES - pack.len(), MISSING);
+            }
+        }
+        let packs = pack_lines.len() / LANES;
+        colour_start[3] = packs;
         let off: Vec<usize> = a
             .offsets()
             .iter()
@@ -116,33 +136,39 @@ impl LineFamily {
             .collect();
         let width = off.len();
         let stride = a.offsets().len();
-        let (mut off_index, mut off_source) = (Vec::with_capacity(n * width), Vec::new());
-        for &p in &nodes {
-            let p = p as usize;
-            let (i, j) = (p % a.nu, p / a.nu);
-            for &slot in &off {
-                match a.neighbour(i, j, slot) {
-                    Some(q) => {
-                        off_index.push(q as u32);
-                        off_source.push((p * stride + slot) as u32);
-                    }
-                    None => {
-                        off_index.push(p as u32);
-                        off_source.push(MISSING);
+        let mut nodes = vec![[0; LANES]; packs * len];
+        let mut off_index = vec![[0; LANES]; packs * len * width];
+        let mut off_source = vec![[MISSING; LANES]; packs * len * width];
+        for (lane_at, &line) in pack_lines.iter().enumerate() {
+            if line == MISSING {
+                continue;
+            }
+            let (pack, lane) = (lane_at / LANES, lane_at % LANES);
+            for t in 0..len {
+                let p = node(line as usize, t);
+                let s = pack * len + t;
+                nodes[s][lane] = p as u32;
+                let (i, j) = (p % a.nu, p / a.nu);
+                for (k, &slot) in off.iter().enumerate() {
+                    off_index[s * width + k][lane] = p as u32;
+                    if let Some(q) = a.neighbour(i, j, slot) {
+                        off_index[s * width + k][lane] = q as u32;
+                        off_source[s * width + k][lane] = (p * stride + slot) as u32;
                     }
                 }
             }
         }
         let mut f = Self {
             direction,
-            lines,
             len,
+            colour_start,
+            pack_lines,
             nodes,
             width,
-            off_blocks: vec![Block::zeros(); n * width],
+            off_blocks: vec![ZERO_BLOCK; packs * len * width],
             off_index,
             off_source,
-            factors: vec![NodeFactor::default(); n],
+            factors: vec![ZERO_FACTOR; packs * len],
         };
         f.factor(a);
         f
@@ -165,108 +191,150 @@ impl LineFamily {
         let values = a.values();
         let source = &self.off_source;
         parallel::for_chunks(&mut self.off_blocks, |start, blocks| {
-            for (b, &src) in blocks.iter_mut().zip(&source[start..]) {
-                *b = if src == MISSING {
-                    Block::zeros()
-                } else {
-                    values[src as usize]
-                };
+            for (b, src) in blocks.iter_mut().zip(&source[start..]) {
+                for (lane, &at) in src.iter().enumerate() {
+                    let m = if at == MISSING {
+                        Block::zeros()
+                    } else {
+                        values[at as usize]
+                    };
+                    set_block(b, lane, &m);
+                }
             }
         });
-        // Each line's Cholesky factors, lines in parallel.
-        let nodes = &self.nodes;
+        // Each line's Cholesky factors, packs in parallel.
+        let (nodes, pack_lines) = (&self.nodes, &self.pack_lines);
         let get = |p: usize, k: Option<usize>| k.map_or(Block::zeros(), |k| a.row(p)[k]);
-        parallel::for_rows(&mut self.factors, len, |l, line| {
-            for t in 0..len {
-                let p = nodes[l * len + t] as usize;
-                let mut l2 = Block::zeros();
-                let mut l1 = Block::zeros();
-                let mut d = get(p, k0);
-                if t >= 2 {
-                    l2 = get(p, k2) * line[t - 2].inv_t;
-                    d -= l2 * l2.transpose();
+        parallel::for_rows(&mut self.factors, len, |pack, factors| {
+            for lane in 0..LANES {
+                if pack_lines[pack * LANES + lane] == MISSING {
+                    continue;
                 }
-                if t >= 1 {
-                    let mut m = get(p, k1);
+                // The last two nodes' factors: (inverse, prev1) at t - 1
+                // and the inverse at t - 2.
+                let (mut inv1, mut prev1, mut inv2) =
+                    (Block::zeros(), Block::zeros(), Block::zeros());
+                for t in 0..len {
+                    let p = nodes[pack * len + t][lane] as usize;
+                    let mut l2 = Block::zeros();
+                    let mut l1 = Block::zeros();
+                    let mut d = get(p, k0);
                     if t >= 2 {
-                        m -= l2 * line[t - 1].prev1_t;
+                        l2 = get(p, k2) * inv2.transpose();
+                        d -= l2 * l2.transpose();
                     }
-                    l1 = m * line[t - 1].inv_t;
-                    d -= l1 * l1.transpose();
+                    if t >= 1 {
+                        let mut m = get(p, k1);
+                        if t >= 2 {
+                            m -= l2 * prev1.transpose();
+                        }
+                        l1 = m * inv1.transpose();
+                        d -= l1 * l1.transpose();
+                    }
+                    let inv = inverse_cholesky(&d, &get(p, k0));
+                    let f = &mut factors[t];
+                    set_block(&mut f.inv, lane, &inv);
+                    set_block(&mut f.prev1, lane, &l1);
+                    set_block(&mut f.prev2, lane, &l2);
+                    (inv2, inv1, prev1) = (inv1, inv, l1);
                 }
-                let inv = inverse_cholesky(&d, &get(p, k0));
-                line[t] = NodeFactor {
-                    inv,
-                    prev1: l1,
-                    prev2: l2,
-                    inv_t: inv.transpose(),
-                    prev1_t: l1.transpose(),
-                    prev2_t: l2.transpose(),
-                };
             }
         });
     }
 
     /// One relaxation of every line, colours in order (`forward`) or
     /// reversed: each line's nodes become the exact solution of its block
-    /// given the others' current values. The lines of a colour are solved
-    /// in parallel (each into its own buffer), then written back.
-    pub fn sweep(&self, b: &[Vec3f], x: &mut [Vec3f], forward: bool, scratch: &mut LineScratch) {
-        let (lines, len) = (self.lines, self.len);
-        scratch.lines.resize(lines * len, Vec3f::zeros());
-        for c in 0..3 {
+    /// given the others' current values. The packs of a colour are solved
+    /// in parallel (each into its own buffer), then written back. `entry`
+    /// lets the sweep skip what it knows the result of (bit for bit the
+    /// same `x`).
+    pub fn sweep(
+        &self,
+        b: &[Vec3f],
+        x: &mut [Vec3f],
+        forward: bool,
+        entry: Entry,
+        scratch: &mut LineScratch,
+    ) {
+        let len = self.len;
+        scratch.packs.resize(self.factors.len(), ZERO_VEC);
+        let first = usize::from(entry == Entry::AfterReverse);
+        for c in first..3 {
             let colour = if forward { c } else { 2 - c };
+            let coupled = !(c == 0 && entry == Entry::Zero);
+            let packs = self.colour_start[colour]..self.colour_start[colour + 1];
+            let out = &mut scratch.packs[packs.start * len..packs.end * len];
             let xr: &[Vec3f] = x;
-            parallel::for_rows(&mut scratch.lines, len, |l, out| {
-                if l % 3 == colour {
-                    self.solve_line(l, b, xr, out);
-                }
+            parallel::for_rows(out, len, |k, out| {
+                self.solve_pack(packs.start + k, b, xr, coupled, out);
             });
-            for l in (colour..lines).step_by(3) {
-                let at = l * len;
-                for t in 0..len {
-                    x[self.nodes[at + t] as usize] = scratch.lines[at + t];
+            for (k, pack) in packs.enumerate() {
+                for lane in 0..LANES {
+                    if self.pack_lines[pack * LANES + lane] == MISSING {
+                        continue;
+                    }
+                    for t in 0..len {
+                        let p = self.nodes[pack * len + t][lane] as usize;
+                        x[p] = get_vec(&out[k * len + t], lane);
+                    }
                 }
             }
         }
     }
 
-    /// Solves line `l`'s block for `b` minus its couplings to the other
-    /// lines at their values in `x`, into `out`.
+    /// Solves the blocks of pack `pack`'s lines for `b` minus their
+    /// couplings to the other lines at their values in `x` (taken as zero
+    /// unless `coupled`), into `out`.
     #[inline]
-    fn solve_line(&self, l: usize, b: &[Vec3f], x: &[Vec3f], out: &mut [Vec3f]) {
+    fn solve_pack(
+        &self,
+        pack: usize,
+        b: &[Vec3f],
+        x: &[Vec3f],
+        coupled: bool,
+        out: &mut [VecLanes],
+    ) {
         let len = self.len;
-        let at = l * len;
+        let at = pack * len;
         let w = self.width;
+        let gather = |v: &[Vec3f], index: &[u32; LANES]| {
+            let mut g = ZERO_VEC;
+            for (lane, &p) in index.iter().enumerate() {
+                set_vec(&mut g, lane, &v[p as usize]);
+            }
+            g
+        };
         // rhs, then L y = rhs in the same pass.
         for t in 0..len {
             let s = at + t;
-            let mut acc = b[self.nodes[s] as usize];
-            let blocks = &self.off_blocks[s * w..(s + 1) * w];
-            let index = &self.off_index[s * w..(s + 1) * w];
-            for (m, &q) in blocks.iter().zip(index) {
-                acc -= m * x[q as usize];
+            let mut acc = gather(b, &self.nodes[s]);
+            if coupled {
+                let blocks = &self.off_blocks[s * w..(s + 1) * w];
+                let index = &self.off_index[s * w..(s + 1) * w];
+                for (m, q) in blocks.iter().zip(index) {
+                    sub_mul(&mut acc, m, &gather(x, q));
+                }
             }
             let f = &self.factors[s];
             if t >= 1 {
-                acc -= f.prev1 * out[t - 1];
+                sub_mul(&mut acc, &f.prev1, &out[t - 1]);
             }
             if t >= 2 {
-                acc -= f.prev2 * out[t - 2];
+                sub_mul(&mut acc, &f.prev2, &out[t - 2]);
             }
-            out[t] = f.inv * acc;
+            out[t] = mul(&f.inv, &acc);
         }
         // Lᵀ x = y.
         for t in (0..len).rev() {
             let s = at + t;
             let mut acc = out[t];
             if t + 1 < len {
-                acc -= self.factors[s + 1].prev1_t * out[t + 1];
+                sub_mul_t(&mut acc, &self.factors[s + 1].prev1, &out[t + 1]);
             }
             if t + 2 < len {
-                acc -= self.factors[s + 2].prev2_t * out[t + 2];
+                sub_mul_t(&mut acc, &self.factors[s + 2].prev2, &out[t + 2]);
             }
-            out[t] = self.factors[s].inv_t * acc;
+            out[t] = mul_t(&self.factors[s].inv, &acc);
         }
     }
 }
@@ -355,7 +423,7 @@ mod tests {
                 .map(|k| Vec3f::new(1.0, (k as f32).sin(), -0.5))
                 .collect();
             let mut x = vec![Vec3f::zeros(); nu * nv];
-            family.sweep(&b, &mut x, true, &mut LineScratch::default());
+            family.sweep(&b, &mut x, true, Entry::Zero, &mut LineScratch::default());
             let mut r = vec![Vec3f::zeros(); nu * nv];
             a.residual(&b, &x, &mut r);
             let worst = r.iter().map(|v| v.amax()).fold(0.0, f32::max);

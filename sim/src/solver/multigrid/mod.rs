@@ -6,10 +6,11 @@
 mod dense;
 mod grid_matrix;
 mod hierarchy;
+mod lanes;
 mod lines;
 mod transfer;
 
 pub use grid_matrix::{Block, GridMatrix, Vec3f};
 pub use hierarchy::{CycleShape, Multigrid};
-pub use lines::{Direction, LineFamily, LineScratch};
+pub use lines::{Direction, Entry, LineFamily, LineScratch};
 pub use transfer::{Axis, Transfer};
