@@ -20,8 +20,15 @@ use crate::math::{Real, Vec3};
 
 /// Elements per chunk.
 pub const CHUNK: usize = 512;
-/// Fewest elements worth spreading over threads.
-pub const PARALLEL_MIN: usize = 4096;
+/// Fewest elements worth spreading over threads. A vector element is a
+/// few nanoseconds; on the 2-core machine the benchmarks run on, loops of
+/// 10⁴ elements (a 100² cloth's CG vectors) were slower spread than on
+/// one thread (the second core's wake-up outweighs a 5–40 µs loop).
+pub const PARALLEL_MIN: usize = 32768;
+/// Fewest values of a [`for_rows`] table worth spreading when each is
+/// a microsecond of work (a node's factor in four SIMD lanes, a coarse
+/// row's Galerkin terms).
+pub const HEAVY_MIN: usize = 512;
 
 /// `Σ f(chunk)` over the chunks of `0..n`, partials added in order.
 pub fn sum(n: usize, f: impl Fn(Range<usize>) -> Real + Sync) -> Real {
@@ -75,8 +82,14 @@ pub fn for_chunks2<A: Send, B: Send>(
 }
 
 /// Runs `f(row, values)` on every row of `out`, a table of rows of
-/// `width` values each.
-pub fn for_rows<T: Send>(out: &mut [T], width: usize, f: impl Fn(usize, &mut [T]) + Sync) {
+/// `width` values each, spread over threads from `min` values (the
+/// caller knows what a value costs: [`HEAVY_MIN`] for a microsecond).
+pub fn for_rows<T: Send>(
+    out: &mut [T],
+    width: usize,
+    min: usize,
+    f: impl Fn(usize, &mut [T]) + Sync,
+) {
     let width = width.max(1);
     let rows_per_chunk = (CHUNK / width).max(1);
     let run = |c: usize, chunk: &mut [T]| {
@@ -84,7 +97,7 @@ pub fn for_rows<T: Send>(out: &mut [T], width: usize, f: impl Fn(usize, &mut [T]
             f(c * rows_per_chunk + k, row);
         }
     };
-    if !is_parallel(out.len()) {
+    if !spread(out.len(), min) {
         for (c, chunk) in out.chunks_mut(rows_per_chunk * width).enumerate() {
             run(c, chunk);
         }
@@ -97,7 +110,11 @@ pub fn for_rows<T: Send>(out: &mut [T], width: usize, f: impl Fn(usize, &mut [T]
 
 /// Whether work on `n` elements is spread over threads.
 pub fn is_parallel(n: usize) -> bool {
-    n >= PARALLEL_MIN && rayon::current_num_threads() > 1
+    spread(n, PARALLEL_MIN)
+}
+
+fn spread(n: usize, min: usize) -> bool {
+    n >= min && rayon::current_num_threads() > 1
 }
 
 #[cfg(test)]

@@ -94,6 +94,11 @@ pub enum Entry {
     AfterReverse,
 }
 
+/// Fewest pack nodes of one colour worth spreading over threads: a pack
+/// node is ~0.1 µs, and below this a colour's work does not pay for
+/// waking another core (at 100² two threads made the sweeps 20 % slower).
+const SWEEP_PARALLEL_MIN: usize = 8192;
+
 /// An off-line neighbour outside the grid, or a padding lane.
 const MISSING: u32 = u32::MAX;
 
@@ -205,41 +210,46 @@ impl LineFamily {
         // Each line's Cholesky factors, packs in parallel.
         let (nodes, pack_lines) = (&self.nodes, &self.pack_lines);
         let get = |p: usize, k: Option<usize>| k.map_or(Block::zeros(), |k| a.row(p)[k]);
-        parallel::for_rows(&mut self.factors, len, |pack, factors| {
-            for lane in 0..LANES {
-                if pack_lines[pack * LANES + lane] == MISSING {
-                    continue;
-                }
-                // The last two nodes' factors: (inverse, prev1) at t - 1
-                // and the inverse at t - 2.
-                let (mut inv1, mut prev1, mut inv2) =
-                    (Block::zeros(), Block::zeros(), Block::zeros());
-                for t in 0..len {
-                    let p = nodes[pack * len + t][lane] as usize;
-                    let mut l2 = Block::zeros();
-                    let mut l1 = Block::zeros();
-                    let mut d = get(p, k0);
-                    if t >= 2 {
-                        l2 = get(p, k2) * inv2.transpose();
-                        d -= l2 * l2.transpose();
+        parallel::for_rows(
+            &mut self.factors,
+            len,
+            parallel::HEAVY_MIN,
+            |pack, factors| {
+                for lane in 0..LANES {
+                    if pack_lines[pack * LANES + lane] == MISSING {
+                        continue;
                     }
-                    if t >= 1 {
-                        let mut m = get(p, k1);
+                    // The last two nodes' factors: (inverse, prev1) at t - 1
+                    // and the inverse at t - 2.
+                    let (mut inv1, mut prev1, mut inv2) =
+                        (Block::zeros(), Block::zeros(), Block::zeros());
+                    for t in 0..len {
+                        let p = nodes[pack * len + t][lane] as usize;
+                        let mut l2 = Block::zeros();
+                        let mut l1 = Block::zeros();
+                        let mut d = get(p, k0);
                         if t >= 2 {
-                            m -= l2 * prev1.transpose();
+                            l2 = get(p, k2) * inv2.transpose();
+                            d -= l2 * l2.transpose();
                         }
-                        l1 = m * inv1.transpose();
-                        d -= l1 * l1.transpose();
+                        if t >= 1 {
+                            let mut m = get(p, k1);
+                            if t >= 2 {
+                                m -= l2 * prev1.transpose();
+                            }
+                            l1 = m * inv1.transpose();
+                            d -= l1 * l1.transpose();
+                        }
+                        let inv = inverse_cholesky(&d, &get(p, k0));
+                        let f = &mut factors[t];
+                        set_block(&mut f.inv, lane, &inv);
+                        set_block(&mut f.prev1, lane, &l1);
+                        set_block(&mut f.prev2, lane, &l2);
+                        (inv2, inv1, prev1) = (inv1, inv, l1);
                     }
-                    let inv = inverse_cholesky(&d, &get(p, k0));
-                    let f = &mut factors[t];
-                    set_block(&mut f.inv, lane, &inv);
-                    set_block(&mut f.prev1, lane, &l1);
-                    set_block(&mut f.prev2, lane, &l2);
-                    (inv2, inv1, prev1) = (inv1, inv, l1);
                 }
-            }
-        });
+            },
+        );
     }
 
     /// One relaxation of every line, colours in order (`forward`) or
@@ -265,7 +275,7 @@ impl LineFamily {
             let packs = self.colour_start[colour]..self.colour_start[colour + 1];
             let out = &mut scratch.packs[packs.start * len..packs.end * len];
             let xr: &[Vec3f] = x;
-            parallel::for_rows(out, len, |k, out| {
+            parallel::for_rows(out, len, SWEEP_PARALLEL_MIN, |k, out| {
                 self.solve_pack(packs.start + k, b, xr, coupled, out);
             });
             for (k, pack) in packs.enumerate() {

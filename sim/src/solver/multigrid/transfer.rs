@@ -187,7 +187,7 @@ impl Transfer {
                 coarse.offset_index(dc, dd)
             })
             .collect();
-        parallel::for_rows(coarse.values_mut(), width, |r, row| {
+        parallel::for_rows(coarse.values_mut(), width, parallel::HEAVY_MIN, |r, row| {
             row.fill(Block::zeros());
             self.for_each_term(a, r, |(dc, dd), w, p, q, block| {
                 let key = ((dd + REACH) * (2 * REACH + 1) + dc + REACH) as usize;
