@@ -42,6 +42,15 @@ fn tight_integrator(model: &ForceModel, tolerance: f64) -> Integrator {
     Integrator::from_parts(2, model, Box::<BlockJacobi>::default(), options, false)
 }
 
+/// Particles 0 and 1 at rest, `length` apart along x, at time 0.
+fn pair_at_rest(length: f64) -> ClothState {
+    ClothState {
+        time: 0.0,
+        x: vec![Vec3::zeros(), Vec3::new(length, 0.0, 0.0)],
+        v: vec![Vec3::zeros(); 2],
+    }
+}
+
 /// A mass `m` on a spring of stiffness `k` along x, its anchor fixed
 /// through the constraint filter, started stretched by 0.05.
 struct Oscillator {
@@ -68,11 +77,7 @@ impl Oscillator {
         let mut integrator = tight_integrator(&self.model, 1e-12);
         let mut c = Constraints::free(2);
         c.fix(0, Vec3::zeros(), Vec3::zeros());
-        let mut state = ClothState {
-            time: 0.0,
-            x: vec![Vec3::zeros(), Vec3::new(self.rest + 0.05, 0.0, 0.0)],
-            v: vec![Vec3::zeros(); 2],
-        };
+        let mut state = pair_at_rest(self.rest + 0.05);
         let physics = Physics {
             model: &self.model,
             mass: &self.mass,
@@ -273,11 +278,7 @@ fn stiff_pendulum_converges_at_second_order_with_bdf2() {
         let mut samples = Vec::new();
         let mut integrator = tight_integrator(&model, 1e-13);
         let mut c = Constraints::free(2);
-        let mut state = ClothState {
-            time: 0.0,
-            x: vec![Vec3::zeros(), Vec3::new(rest, 0.0, 0.0)],
-            v: vec![Vec3::zeros(); 2],
-        };
+        let mut state = pair_at_rest(rest);
         let (mut dv, mut moved) = (vec![Vec3::zeros(); 2], vec![Vec3::zeros(); 2]);
         let (mut last_moved, mut last_dv, mut last_h) = (moved.clone(), dv.clone(), 0.0);
         for n in 1..=(0.5 / h).round() as usize {
@@ -359,11 +360,7 @@ fn bdf2_newton_correction_cuts_the_linearisation_residual() {
     };
     let mut integrator = tight_integrator(&model, 1e-13);
     let mut c = Constraints::free(2);
-    let mut state = ClothState {
-        time: 0.0,
-        x: vec![Vec3::zeros(), Vec3::new(rest, 0.0, 0.0)],
-        v: vec![Vec3::zeros(); 2],
-    };
+    let mut state = pair_at_rest(rest);
     let h = 1.0 / 120.0;
     let (mut dv, mut moved) = (vec![Vec3::zeros(); 2], vec![Vec3::zeros(); 2]);
     let (mut last_moved, mut last_dv, mut last_h) = (moved.clone(), dv.clone(), 0.0);

@@ -117,7 +117,8 @@ impl BlockCsr {
 
     /// The entries of row `i` as `(column, block)`.
     pub fn row(&self, i: usize) -> impl Iterator<Item = (usize, &Mat3)> {
-        (self.row_ptr[i]..self.row_ptr[i + 1]).map(move |k| (self.col[k] as usize, &self.values[k]))
+        self.row_slots(i)
+            .map(move |s| (self.column(s), &self.values[s]))
     }
 }
 

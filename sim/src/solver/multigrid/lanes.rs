@@ -57,20 +57,20 @@ pub fn get_vec(v: &VecLanes, lane: usize) -> Vec3f {
 /// `acc -= m v`, lane by lane.
 #[inline(always)]
 pub fn sub_mul(acc: &mut VecLanes, m: &BlockLanes, v: &VecLanes) {
-    for r in 0..3 {
-        for l in 0..LANES {
-            acc[r][l] -=
-                m[3 * r][l] * v[0][l] + m[3 * r + 1][l] * v[1][l] + m[3 * r + 2][l] * v[2][l];
-        }
-    }
+    sub_assign(acc, &mul(m, v));
 }
 
 /// `acc -= mᵀ v`, lane by lane.
 #[inline(always)]
 pub fn sub_mul_t(acc: &mut VecLanes, m: &BlockLanes, v: &VecLanes) {
-    for r in 0..3 {
-        for l in 0..LANES {
-            acc[r][l] -= m[r][l] * v[0][l] + m[3 + r][l] * v[1][l] + m[6 + r][l] * v[2][l];
+    sub_assign(acc, &mul_t(m, v));
+}
+
+#[inline(always)]
+fn sub_assign(acc: &mut VecLanes, v: &VecLanes) {
+    for (a, v) in acc.iter_mut().zip(v) {
+        for (a, v) in a.iter_mut().zip(v) {
+            *a -= v;
         }
     }
 }
