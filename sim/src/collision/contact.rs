@@ -38,6 +38,14 @@ pub struct Contact {
     pub sticking: bool,
     /// Normal force of the last solve, N (0 for a new contact).
     pub normal_force: Real,
+    /// The tangential force static friction failed to hold when the
+    /// contact last broke loose, N (0 if it never did): a sliding contact
+    /// sticks again only when friction could hold that load as well as
+    /// stop the slide (the hysteresis that keeps a particle whose load
+    /// exceeds the cone from flipping between sticking and sliding every
+    /// step while the cloth lies still).
+    #[serde(default)]
+    pub load: Real,
 }
 
 /// A contact's geometry for the current step, in the world.
@@ -153,6 +161,7 @@ mod tests {
             obstacle: 0,
             sticking,
             normal_force: 1.0,
+            load: 0.0,
         }
     }
 
