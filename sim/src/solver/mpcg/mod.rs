@@ -213,13 +213,6 @@ pub fn iterate(
         {
             break SolveStatus::Converged;
         }
-        // Or the step terms' estimate, which many constraints favour.
-        if let Some(bound) = opts.error_bound
-            && iterations >= DELAY
-            && 4.0 * window.iter().sum::<Real>() <= bound * bound
-        {
-            break SolveStatus::Converged;
-        }
         // c = s + beta c (the first direction is s itself).
         let beta = if iterations == 0 {
             0.0
@@ -250,7 +243,15 @@ pub fn iterate(
         });
         rnorm = dot(&ws.r, &ws.r).sqrt();
         iterations += 1;
+        // Or the step terms' estimate, which many constraints favour: it
+        // needs no new δ, so it is checked before the next apply.
         window[iterations % DELAY] = alpha * delta;
+        if let Some(bound) = opts.error_bound
+            && iterations >= DELAY
+            && 4.0 * window.iter().sum::<Real>() <= bound * bound
+        {
+            break SolveStatus::Converged;
+        }
     };
     SolveReport {
         iterations,

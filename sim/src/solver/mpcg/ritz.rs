@@ -19,7 +19,7 @@
 use crate::math::Real;
 
 /// The tridiagonal of one solve, grown one iteration at a time.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Lanczos {
     diag: Vec<Real>,
     /// `off[j]` couples rows `j` and `j + 1`.
@@ -32,6 +32,17 @@ pub struct Lanczos {
 
 /// Bisection steps: the interval shrinks to 2⁻⁴⁰ of itself.
 const BISECTIONS: usize = 40;
+
+impl Default for Lanczos {
+    fn default() -> Self {
+        Self {
+            diag: Vec::new(),
+            off: Vec::new(),
+            last_alpha: 0.0,
+            smallest: Real::INFINITY,
+        }
+    }
+}
 
 impl Lanczos {
     /// Forgets the last solve.
@@ -114,7 +125,6 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(5);
         for n in 1..30 {
             let mut t = Lanczos::default();
-            t.clear();
             for _ in 0..n {
                 t.push(rng.random_range(0.01..2.0), rng.random_range(0.0..1.5));
             }
