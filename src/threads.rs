@@ -16,3 +16,17 @@ pub fn init(threads: Option<u16>) -> Result<(), rayon::ThreadPoolBuildError> {
         .thread_name(|k| format!("solver-{k}"))
         .build_global()
 }
+
+/// Runs `f` on one of the pool's own threads and waits for it.
+///
+/// PERF: a parallel loop started from outside the pool is handed to it
+/// and its caller sleeps until the pool is done, so every loop pays a
+/// wake-up of both workers (tens of µs on the 2-core VM, hundreds of
+/// times a second). Started from a pool thread, the loop's first half
+/// runs where it is and only the rest waits for a second worker. For one
+/// simulation at a time (the CLI); the service's workers stay outside
+/// the pool, because a pool thread waiting on a join may pick up a
+/// whole other job and hold its own until that one ends.
+pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    rayon::scope(|_| f())
+}

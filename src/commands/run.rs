@@ -52,8 +52,10 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
     )?;
     let start = Instant::now();
     let mut rec = sim.recorder();
-    let outcome = sim.run(&control, &mut rec, |s, stats| {
-        sink.write(stats.frame, stats.time, &s.state().x)
+    let outcome = crate::threads::on_pool(|| {
+        sim.run(&control, &mut rec, |s, stats| {
+            sink.write(stats.frame, stats.time, &s.state().x)
+        })
     });
     let outcome = outcome
         .map_err(anyhow::Error::from)

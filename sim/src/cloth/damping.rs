@@ -10,7 +10,7 @@
 //! [`JacobianMode::Solver`] omits it, and [`JacobianMode::Exact`] gives it so
 //! the finite-difference tests check every derivative.
 
-use super::force::{Force, Sink, pair_blocks};
+use super::force::{Force, Sink};
 use super::stretch::Spring;
 use crate::math::{Mat3, Real, Vec3, outer};
 use crate::spec::JacobianMode;
@@ -74,16 +74,15 @@ impl Force for SpringDamping {
         let dv = v[s.a] - v[s.b];
         let rate = u.dot(&dv);
         let c = s.k;
-        let (f, dfdv) = pair_blocks(u * (c * rate), outer(&u, &u) * c);
+        let damp = outer(&u, &u) * c;
         let dfdx = match mode {
             JacobianMode::Solver => None,
             JacobianMode::Exact => {
                 let p = Mat3::identity() - outer(&u, &u);
-                let g = (u * (dv.transpose() * p) + p * rate) * (c / l);
-                Some(pair_blocks(Vec3::zeros(), g).1)
+                Some((u * (dv.transpose() * p) + p * rate) * (c / l))
             }
         };
-        sink.add(e, &[s.a, s.b], &f, dfdx.as_ref(), Some(&dfdv));
+        sink.add_pair(e, [s.a, s.b], u * (c * rate), dfdx.as_ref(), Some(&damp));
     }
 }
 

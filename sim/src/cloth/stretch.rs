@@ -12,7 +12,7 @@
 //! than its rest length. In [`JacobianMode::Solver`] the transverse factor
 //! is clamped to `max(0, 1 - L/l)`, which drops only the buckling term.
 
-use super::force::{Force, Sink, pair_blocks};
+use super::force::{Force, Sink};
 use super::grid::Grid;
 use crate::math::{Mat3, Real, Vec3, outer};
 use crate::spec::JacobianMode;
@@ -124,8 +124,7 @@ impl Force for Stretch {
             transverse = transverse.max(0.0);
         }
         let h = (uu + (Mat3::identity() - uu) * transverse) * s.k;
-        let (f, k) = pair_blocks(u * (s.k * (l - s.rest)), h);
-        sink.add(e, &[s.a, s.b], &f, Some(&k), None);
+        sink.add_pair(e, [s.a, s.b], u * (s.k * (l - s.rest)), Some(&h), None);
     }
 }
 

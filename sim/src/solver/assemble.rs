@@ -35,6 +35,10 @@ pub struct System {
     pub a: BlockCsr,
     /// `b`.
     pub b: Vec<Vec3>,
+    /// The displacement `K` multiplies in `b` (`h' v0 + p + y`, or `y`
+    /// after a prediction), per particle: computed once per assembly
+    /// rather than once per element it is in.
+    w: Vec<Vec3>,
     /// Per force term, per element, the `N x N` slots of its blocks.
     slots: [Vec<u32>; TERMS],
     /// The bands of rows assembled in parallel.
@@ -176,6 +180,7 @@ impl System {
         Self {
             a,
             b: vec![Vec3::zeros(); n],
+            w: vec![Vec3::zeros(); n],
             slots,
             bands,
         }
@@ -183,6 +188,15 @@ impl System {
 
     /// Writes `A` and `b` for one step (eq. [20]).
     pub fn assemble(&mut self, model: &ForceModel, input: &AssemblyInput<'_>) {
+        let h = input.scheme.h_eff();
+        for (i, w) in self.w.iter_mut().enumerate() {
+            *w = if input.predicted {
+                input.y[i]
+            } else {
+                input.v[i] * h + input.scheme.carry(i) + input.y[i]
+            };
+        }
+        let w = &self.w[..];
         // Each band's rows, their slots and their part of `b`.
         let mut work = Vec::with_capacity(self.bands.len());
         let (mut values, mut b) = (&mut self.a.values[..], &mut self.b[..]);
@@ -194,7 +208,7 @@ impl System {
         }
         let slots = &self.slots;
         let task = |(band, values, b): (&Band, &mut [Mat3], &mut [Vec3])| {
-            assemble_band(model, input, slots, band, values, b);
+            assemble_band(model, input, w, slots, band, values, b);
         };
         if work.len() > 1 {
             work.into_par_iter().for_each(task);
@@ -204,35 +218,12 @@ impl System {
     }
 }
 
-/// Calls `visit(term, add)` for every force term and every element of
-/// `band`, in order; `add(sink)` adds the element to a sink.
-fn each_element<S: Sink>(
-    model: &ForceModel,
-    band: &Band,
-    x: &[Vec3],
-    v: &[Vec3],
-    mut visit: impl FnMut(usize, &dyn Fn(&mut S)),
-) {
-    let mode = JacobianMode::Solver;
-    for (t, elements) in band.elements.iter().enumerate() {
-        for &e in elements {
-            let e = e as usize;
-            match Term::ALL[t] {
-                Term::Stretch => visit(t, &|s| model.stretch.add_element(e, x, v, mode, s)),
-                Term::Damping => visit(t, &|s| model.damping.add_element(e, x, v, mode, s)),
-                Term::Bend => visit(t, &|s| model.bend.add_element(e, x, v, mode, s)),
-                Term::Shear => visit(t, &|s| model.shear.add_element(e, x, v, mode, s)),
-                Term::Drag => visit(t, &|s| model.drag.add_element(e, x, v, mode, s)),
-            }
-        }
-    }
-}
-
 /// One band: mass and gravity on its rows, then every force's elements
 /// touching it, in element order.
 fn assemble_band(
     model: &ForceModel,
     input: &AssemblyInput<'_>,
+    w: &[Vec3],
     slots: &[Vec<u32>; TERMS],
     band: &Band,
     values: &mut [Mat3],
@@ -252,17 +243,36 @@ fn assemble_band(
         b,
         rows: band.rows.clone(),
         base,
-        v: input.v,
-        y: input.y,
-        scheme: &input.scheme,
-        predicted: input.predicted,
+        w,
         h,
         slots: &[],
     };
-    each_element(model, band, input.x, input.v, |t, add| {
+    let (x, v) = (input.x, input.v);
+    for term in Term::ALL {
+        let t = term as usize;
         sink.slots = &slots[t];
-        add(&mut sink);
-    });
+        let elements = &band.elements[t];
+        match term {
+            Term::Stretch => add_term(&model.stretch, elements, x, v, &mut sink),
+            Term::Damping => add_term(&model.damping, elements, x, v, &mut sink),
+            Term::Bend => add_term(&model.bend, elements, x, v, &mut sink),
+            Term::Shear => add_term(&model.shear, elements, x, v, &mut sink),
+            Term::Drag => add_term(&model.drag, elements, x, v, &mut sink),
+        }
+    }
+}
+
+/// Adds `elements` of `force`, in order.
+fn add_term<F: Force>(
+    force: &F,
+    elements: &[u32],
+    x: &[Vec3],
+    v: &[Vec3],
+    sink: &mut AssemblySink<'_>,
+) {
+    for &e in elements {
+        force.add_element(e as usize, x, v, JacobianMode::Solver, sink);
+    }
 }
 
 /// Writes element blocks into one band of `A` and `b` through precomputed
@@ -273,10 +283,8 @@ struct AssemblySink<'a> {
     rows: Range<usize>,
     /// Slot of `values[0]`.
     base: usize,
-    v: &'a [Vec3],
-    y: &'a [Vec3],
-    scheme: &'a Scheme<'a>,
-    predicted: bool,
+    /// The displacement `K` multiplies in `b`, per particle.
+    w: &'a [Vec3],
     /// `h'`.
     h: Real,
     slots: &'a [u32],
@@ -295,16 +303,7 @@ impl Sink for AssemblySink<'_> {
         let h = self.h;
         let h2 = h * h;
         let slots = &self.slots[element * N * N..(element + 1) * N * N];
-        // The displacement `h' v0 + p + y` that K multiplies in b, once
-        // per particle of the element.
-        let w: [Vec3; N] = std::array::from_fn(|q| {
-            let i = idx[q];
-            if self.predicted {
-                self.y[i]
-            } else {
-                self.v[i] * h + self.scheme.carry(i) + self.y[i]
-            }
-        });
+        let w: [Vec3; N] = std::array::from_fn(|q| self.w[idx[q]]);
         for a in 0..N {
             if !self.rows.contains(&idx[a]) {
                 continue;
@@ -324,6 +323,85 @@ impl Sink for AssemblySink<'_> {
                 }
             }
             self.b[idx[a] - self.rows.start] += rhs * h;
+        }
+    }
+
+    /// PERF: the four blocks of a pair are `±k` (and `±c`), so each is
+    /// scaled once. The sums are those of [`Sink::add`] term for term, so
+    /// `A` and `b` are bit for bit the same.
+    #[inline]
+    fn add_pair(
+        &mut self,
+        element: usize,
+        idx: [usize; 2],
+        g: Vec3,
+        k: Option<&Mat3>,
+        c: Option<&Mat3>,
+    ) {
+        let h = self.h;
+        let [a, b] = idx;
+        let mut m = Mat3::zeros();
+        // f_a = -g; K_a w = -k w_a + k w_b, and row b is the negation.
+        let mut rhs = -g;
+        if let Some(k) = k {
+            m += k * (h * h);
+            rhs += -k * self.w[a];
+            rhs += k * self.w[b];
+        }
+        if let Some(c) = c {
+            m += c * h;
+        }
+        let rhs = rhs * h;
+        let slots = &self.slots[element * 4..element * 4 + 4];
+        let base = self.base;
+        if self.rows.contains(&a) {
+            self.values[slots[0] as usize - base] += m;
+            self.values[slots[1] as usize - base] -= m;
+            self.b[a - self.rows.start] += rhs;
+        }
+        if self.rows.contains(&b) {
+            self.values[slots[2] as usize - base] -= m;
+            self.values[slots[3] as usize - base] += m;
+            self.b[b - self.rows.start] -= rhs;
+        }
+    }
+
+    /// PERF: the particle blocks are sums of the four arm blocks, built
+    /// and scaled in place rather than as an array of nine, with the same
+    /// sums as [`Sink::add`] (bit for bit the same `A` and `b`).
+    #[inline]
+    fn add_arms(
+        &mut self,
+        element: usize,
+        idx: &[usize; 3],
+        grad: &[Vec3; 2],
+        hess: &[[Mat3; 2]; 2],
+    ) {
+        let h = self.h;
+        let h2 = h * h;
+        let [g1, g2] = *grad;
+        let [[h11, h12], [h21, h22]] = *hess;
+        let (s1, s2) = (h11 + h12, h21 + h22);
+        let w = [self.w[idx[0]], self.w[idx[1]], self.w[idx[2]]];
+        let slots = &self.slots[element * 9..element * 9 + 9];
+        let (base, start) = (self.base, self.rows.start);
+        // Row blocks of K (`arm_blocks`): -h11, s1, -h12 | h11 + h21,
+        // -(s1 + s2), h12 + h22 | -h21, s2, -h22; A -= h'² K, b = h' (f + K w).
+        let rows = [
+            (-g1, [-h11, s1, -h12]),
+            (g1 + g2, [h11 + h21, -(s1 + s2), h12 + h22]),
+            (-g2, [-h21, s2, -h22]),
+        ];
+        for (a, (f, k)) in rows.iter().enumerate() {
+            if !self.rows.contains(&idx[a]) {
+                continue;
+            }
+            let mut rhs = *f;
+            for q in 0..3 {
+                self.values[slots[a * 3 + q] as usize - base] -= k[q] * h2;
+                rhs += k[q] * w[q];
+            }
+            self.b[idx[a] - start] += rhs * h;
         }
     }
 }
