@@ -38,22 +38,6 @@ pub trait Sink {
         let dfdv = c.map(|c| pair_blocks(Vec3::zeros(), *c).1);
         self.add(element, &idx, &f, k.map(|_| &dfdx), dfdv.as_ref());
     }
-
-    /// Adds a three-particle element written in terms of the arms
-    /// `e1 = x_a - x_b`, `e2 = x_c - x_b` of its centre `b`: the gradient
-    /// `grad[i] = ∂E/∂e_i` and Hessian `hess[i][j] = ∂²E/∂e_i∂e_j`.
-    /// A sink may override it to use the structure.
-    #[inline]
-    fn add_arms(
-        &mut self,
-        element: usize,
-        idx: &[usize; 3],
-        grad: &[Vec3; 2],
-        hess: &[[Mat3; 2]; 2],
-    ) {
-        let (f, k) = arm_blocks(grad, hess);
-        self.add(element, idx, &f, Some(&k), None);
-    }
 }
 
 /// A force term of the cloth (method.md §1, eq. [4]).
@@ -87,24 +71,6 @@ pub trait Force {
             self.add_element(e, x, v, mode, sink);
         }
     }
-}
-
-/// Maps the arm derivatives of a three-particle element (see
-/// [`Sink::add_arms`]) to particle forces `-∂E/∂x` and blocks `-∂²E/∂x∂x`
-/// (`b` sees both arms, negated).
-#[inline]
-pub fn arm_blocks(grad: &[Vec3; 2], hess: &[[Mat3; 2]; 2]) -> ([Vec3; 3], [[Mat3; 3]; 3]) {
-    let [g1, g2] = *grad;
-    let [[h11, h12], [h21, h22]] = *hess;
-    let (s1, s2) = (h11 + h12, h21 + h22);
-    (
-        [-g1, g1 + g2, -g2],
-        [
-            [-h11, s1, -h12],
-            [h11 + h21, -(s1 + s2), h12 + h22],
-            [-h21, s2, -h22],
-        ],
-    )
 }
 
 /// Maps `-∇E` and `-∇²E` of a two-particle element written in terms of

@@ -365,43 +365,4 @@ impl Sink for AssemblySink<'_> {
             self.b[b - self.rows.start] -= rhs;
         }
     }
-
-    /// PERF: the particle blocks are sums of the four arm blocks, built
-    /// and scaled in place rather than as an array of nine, with the same
-    /// sums as [`Sink::add`] (bit for bit the same `A` and `b`).
-    #[inline]
-    fn add_arms(
-        &mut self,
-        element: usize,
-        idx: &[usize; 3],
-        grad: &[Vec3; 2],
-        hess: &[[Mat3; 2]; 2],
-    ) {
-        let h = self.h;
-        let h2 = h * h;
-        let [g1, g2] = *grad;
-        let [[h11, h12], [h21, h22]] = *hess;
-        let (s1, s2) = (h11 + h12, h21 + h22);
-        let w = [self.w[idx[0]], self.w[idx[1]], self.w[idx[2]]];
-        let slots = &self.slots[element * 9..element * 9 + 9];
-        let (base, start) = (self.base, self.rows.start);
-        // Row blocks of K (`arm_blocks`): -h11, s1, -h12 | h11 + h21,
-        // -(s1 + s2), h12 + h22 | -h21, s2, -h22; A -= h'² K, b = h' (f + K w).
-        let rows = [
-            (-g1, [-h11, s1, -h12]),
-            (g1 + g2, [h11 + h21, -(s1 + s2), h12 + h22]),
-            (-g2, [-h21, s2, -h22]),
-        ];
-        for (a, (f, k)) in rows.iter().enumerate() {
-            if !self.rows.contains(&idx[a]) {
-                continue;
-            }
-            let mut rhs = *f;
-            for q in 0..3 {
-                self.values[slots[a * 3 + q] as usize - base] -= k[q] * h2;
-                rhs += k[q] * w[q];
-            }
-            self.b[idx[a] - start] += rhs * h;
-        }
-    }
 }
