@@ -18,7 +18,9 @@
 //! or resting particle that went on moving past frozen neighbours could
 //! pass through them (it did, on the curtain piling onto a floor), and a
 //! pin that lags one step is pulled back by the next step's correction
-//! `y`.
+//! `y`. NOTE: on a pile that pull-back can meet the pile and end in the
+//! fail-safe again, step after step, so the pin stays behind its motion
+//! (docs/benchmarks.md, "Where the solver is weak").
 //!
 //! Particles that are held (pins, obstacle contacts: `held`) do not yield
 //! to impulses, and weigh [`HELD_WEIGHT`] times their mass in a zone, so

@@ -34,8 +34,8 @@
 //! where hundreds of contacts spread the residual over fast modes `δ /
 //! λ_min` overstates the error and the step terms fire first (pedestal-mesh:
 //! 16,512 CG iterations with the Ritz bound alone, 13,755 with both). On
-//! ill-conditioned random systems under block Jacobi the iterate either
-//! returns stays within the bound (`tests.rs`).
+//! ill-conditioned random systems under block Jacobi the iterate that
+//! either estimate returns alone stays within the bound (`tests.rs`).
 //!
 //! A solve is [`start`]ed (the warm start's residual, which may already
 //! meet the tolerance: then no preconditioner is needed at all) and then
