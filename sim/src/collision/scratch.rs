@@ -38,6 +38,9 @@ pub struct CollisionScratch {
     /// Contacts the last accepted step released, with the velocity change
     /// their hold took away (`Self::released`).
     pub(super) released: Vec<(u32, Vec3)>,
+    /// The contacts the last accepted step kept, `(particle, outward
+    /// normal)`, in particle order (`Self::kept`).
+    pub(super) kept: Vec<(u32, Vec3)>,
     /// Counters since the last [`Self::take_counters`].
     pub(super) counters: CollisionCounters,
 }
@@ -59,6 +62,14 @@ impl CollisionScratch {
     /// again by a prediction biased towards the surface.
     pub fn released(&self) -> &[(u32, Vec3)] {
         &self.released
+    }
+
+    /// The contacts the last accepted step kept, each as its particle and
+    /// the obstacle's outward normal there, in particle order: what holds
+    /// a particle against a surface lets it leave along that normal (the
+    /// self-collision response lifts a layer off a layer beneath it).
+    pub fn kept(&self) -> &[(u32, Vec3)] {
+        &self.kept
     }
 
     /// Counters accumulated since the last call, reset.

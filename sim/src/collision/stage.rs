@@ -179,6 +179,36 @@ impl CollisionStage<'_> {
         Verdict::Accept
     }
 
+    /// Adds to `near` each particle `i` of `x` (positions at the step's
+    /// end) that `skip` does not exclude and that lies within
+    /// `margin` outside an obstacle's offset surface (or inside it), with
+    /// that surface's outward normal `n` there, as `(i, n)`: the cloth
+    /// resting on an
+    /// obstacle without a contact (one just released, or landed by the
+    /// self-collision response), which the response must not push in.
+    pub fn near_surfaces(
+        &mut self,
+        x: &[Vec3],
+        margin: Real,
+        skip: impl Fn(usize) -> bool,
+        near: &mut Vec<(u32, Vec3)>,
+    ) {
+        for (k, c) in self.obstacles.colliders().iter().enumerate() {
+            let world = self.scratch.swept[k].grown(margin);
+            let (_, p1) = &self.scratch.poses[k];
+            for (i, p) in x.iter().enumerate() {
+                if skip(i) || !world.contains(p) {
+                    continue;
+                }
+                let local = p1.inverse_transform_point(&(*p).into()).coords;
+                let pr = c.surface.project(&local, &mut self.scratch.counters.nodes);
+                if pr.distance < margin {
+                    near.push((i as u32, p1.transform_vector(&pr.normal)));
+                }
+            }
+        }
+    }
+
     fn set_poses(&mut self, t: Real, h: Real) {
         for (k, c) in self.obstacles.colliders().iter().enumerate() {
             if !c.is_static {
@@ -307,6 +337,8 @@ impl CollisionStage<'_> {
         let plans = &self.scratch.plans;
         let released = &mut self.scratch.released;
         released.clear();
+        let kept = &mut self.scratch.kept;
+        kept.clear();
         let colliders = self.obstacles.colliders();
         let mut k = 0;
         self.contacts.retain_mut(|ct| {
@@ -325,6 +357,7 @@ impl CollisionStage<'_> {
                 released.push((ct.particle, plan.normal * (-ln / mass[i])));
                 return false;
             }
+            kept.push((ct.particle, plan.normal));
             ct.normal_force = ln.max(0.0) / h;
             let mu = colliders[ct.obstacle as usize].friction;
             if mu <= 0.0 {

@@ -7,6 +7,7 @@
 //! | `geometry` | closest points, the segment–triangle crossing |
 //! | `topology` | the cloth's triangles and edges, their swept boxes and hierarchies |
 //! | `ccd` | continuous vertex–face and edge–edge tests |
+//! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |
 //! | `response` | proximity impulses, collision impulses, rigid impact zones |
 //! | `crossings` | the exact count of cloth edges through cloth triangles |
 //!
@@ -19,11 +20,13 @@
 mod ccd;
 mod crossings;
 mod geometry;
+mod impulse;
 mod response;
 mod topology;
 
 pub use crossings::count_crossings;
 pub use geometry::segment_crosses_triangle;
+pub use impulse::Hold;
 pub use response::{Motion, SelfReport};
 pub use topology::ClothMesh;
 
@@ -82,7 +85,7 @@ impl SelfCollision {
         &mut self,
         x0: &[Vec3],
         mass: &[Real],
-        held: &[bool],
+        held: &[Hold],
         h: Real,
         state: &mut ClothState,
         moved: &mut [Vec3],

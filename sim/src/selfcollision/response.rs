@@ -14,20 +14,27 @@
 //! has no crossings; zones grow until no pair between them collides
 //! either. If [`MAX_ZONE_ROUNDS`] rounds do not end it, every particle
 //! keeps its start position (the start had no crossings): the fail-safe of
-//! the fail-safe, counted in the report. Held particles stop too: a pinned
-//! or resting particle that went on moving past frozen neighbours could
-//! pass through them (it did, on the curtain piling onto a floor), and a
-//! pin that lags one step is pulled back by the next step's correction
-//! `y`. NOTE: on a pile that pull-back can meet the pile and end in the
-//! fail-safe again, step after step, so the pin stays behind its motion
-//! (docs/benchmarks.md, "Where the solver is weak").
+//! the fail-safe, counted in the report. Held particles stop too (a pinned
+//! particle that went on moving past frozen neighbours could pass through
+//! them), and a pin that lags is pulled back by the next step's correction
+//! `y`.
 //!
-//! Particles that are held (pins, obstacle contacts: `held`) do not yield
-//! to impulses, and weigh [`HELD_WEIGHT`] times their mass in a zone, so
-//! the cloth gives way around them rather than pushing them into an
-//! obstacle or off their pin.
+//! Particles that are held ([`Hold`]: pins, obstacle contacts) weigh
+//! [`HELD_WEIGHT`] times their mass in a zone, so the cloth gives way
+//! around them rather than pushing them into an obstacle or off their pin;
+//! a zone whose rigid motion would still push a resting particle into its
+//! obstacle (pins lowering cloth onto cloth that lies on the floor: no
+//! rigid motion keeps both) keeps its start for the step. To impulses a
+//! pin does not yield at all, and a particle on an obstacle yields only by
+//! leaving it (`super::impulse`). Before that, a curtain lowered onto a
+//! floor passed or failed by round-off: along some paths two layers
+//! landed in the floor's plane and passed through each other there, along
+//! others every step from t = 0.9 s ended in the fail-safe and the pins
+//! stayed 20 cm behind their motion (`sim/tests/self_collision.rs` now
+//! lowers it along four).
 
 use super::ccd::{Closest, Kind, Moving, closest};
+use super::impulse::{Hold, Mobility, apply, relative};
 use super::topology::ClothMesh;
 use crate::math::{Mat3, Real, Vec3};
 
@@ -63,8 +70,8 @@ pub struct Motion<'a> {
     pub x0: &'a [Vec3],
     /// Lumped masses.
     pub mass: &'a [Real],
-    /// Particles that do not yield (pinned or resting on an obstacle).
-    pub held: &'a [bool],
+    /// How each particle yields.
+    pub held: &'a [Hold],
     /// The step.
     pub h: Real,
     /// The cloth's thickness: the distance the layers keep.
@@ -99,34 +106,6 @@ fn particles(mesh: &ClothMesh, kind: Kind, a: u32, b: u32) -> [usize; 4] {
     }
 }
 
-/// Applies the impulse that changes the pair's relative velocity by
-/// `want`, shared by inverse mass and weight (`Δu_k = c_k w_k J`, `J =
-/// want / Σ c_k² w_k`); nothing if every particle is held.
-///
-/// No particle's velocity changes by more than `|want|` (`J` is divided by
-/// at least `max_k |c_k| w_k`). When held particles carry most of a pair,
-/// the free ones have small coefficients and the exact impulse would move
-/// them by `|want| / |c_k|`: in a curtain piling onto a floor, a free
-/// corner of a triangle whose other corners rested on the floor
-/// (`c = 0.0019`) was thrown at 450 m/s, and within ten steps the cloth
-/// blew up. Such a pair keeps part of its approach; the next sweep and
-/// the rigid zones, where held particles weigh finitely, stop it.
-fn apply(u: &mut [Vec3], idx: &[usize; 4], c: &[Real; 4], w: &[Real; 4], want: &Vec3) {
-    let weight: Real = (0..4).map(|k| c[k] * c[k] * w[k]).sum();
-    if weight <= 0.0 {
-        return;
-    }
-    let reach = (0..4).map(|k| c[k].abs() * w[k]).fold(0.0, Real::max);
-    let j = want / weight.max(reach);
-    for k in 0..4 {
-        u[idx[k]] += j * (c[k] * w[k]);
-    }
-}
-
-fn relative(u: &[Vec3], idx: &[usize; 4], c: &[Real; 4]) -> Vec3 {
-    (0..4).map(|k| u[idx[k]] * c[k]).sum()
-}
-
 impl Scratch {
     /// Changes the average velocities `u` so that `x0 + h u` keeps the
     /// cloth apart from itself.
@@ -134,11 +113,11 @@ impl Scratch {
         let mut report = SelfReport::default();
         self.separation.clear();
         self.separation.resize(u.len(), Vec3::zeros());
-        let inv_mass: Vec<Real> = m
+        let inv_mass: Vec<Mobility> = m
             .mass
             .iter()
             .zip(m.held)
-            .map(|(&ms, &held)| if held || ms <= 0.0 { 0.0 } else { 1.0 / ms })
+            .map(|(&mass, &held)| Mobility::of(held, mass))
             .collect();
         self.proximity(mesh, m, &inv_mass, u, &mut report);
         // The proximity pass's pairs were gathered with the thickness as
@@ -175,7 +154,7 @@ impl Scratch {
         &mut self,
         mesh: &mut ClothMesh,
         m: &Motion<'_>,
-        inv_mass: &[Real],
+        inv_mass: &[Mobility],
         u: &mut [Vec3],
         report: &mut SelfReport,
     ) {
@@ -350,7 +329,14 @@ fn rigidify(zone: &mut [u32], m: &Motion<'_>, u: &mut [Vec3]) -> usize {
         let r = find(zone, k);
         members[r].push(k);
     }
-    let weight = |k: usize| m.mass[k] * if m.held[k] { HELD_WEIGHT } else { 1.0 };
+    let weight = |k: usize| {
+        m.mass[k]
+            * if m.held[k].is_held() {
+                HELD_WEIGHT
+            } else {
+                1.0
+            }
+    };
     let mut zones = 0;
     for group in members.iter().filter(|g| g.len() > 1) {
         zones += 1;
@@ -370,8 +356,20 @@ fn rigidify(zone: &mut [u32], m: &Motion<'_>, u: &mut [Vec3]) -> usize {
         let omega = (inertia + reg)
             .try_inverse()
             .map_or(Vec3::zeros(), |i| i * l);
+        // A zone that would drive a particle into the obstacle it rests
+        // on (a pin lowering cloth onto cloth that lies on the floor: no
+        // rigid motion keeps both, and the weighted one drove the resting
+        // cloth 2.9 mm into the floor) keeps its start for this step,
+        // held members included; a pin that lags is brought back by the
+        // next step's correction `y`.
+        let tolerance = COLLISION_PAD * m.thickness / m.h;
+        let rigid = |k: usize| vc + omega.cross(&(m.x0[k] - xc));
+        let pushes_in = group.iter().any(|&k| match m.held[k] {
+            Hold::Lift(n) => n.dot(&(rigid(k) - u[k])) < -tolerance,
+            _ => false,
+        });
         for &k in group {
-            u[k] = vc + omega.cross(&(m.x0[k] - xc));
+            u[k] = if pushes_in { Vec3::zeros() } else { rigid(k) };
         }
     }
     zones

@@ -10,6 +10,7 @@
 //!                                                 -> FrameStats -> RunStats
 //! ```
 
+mod apart;
 mod control;
 mod driver;
 mod error;

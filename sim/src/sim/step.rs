@@ -15,6 +15,7 @@
 //! crossings left after the last redo take effect from the next step.
 //! Every stage is timed and traced by [`StageClock`].
 
+use super::apart::ApartStage;
 use super::error::SimError;
 use super::stage::{Stage, StageClock, StageTimes};
 use super::state::RunState;
@@ -23,7 +24,7 @@ use super::world::World;
 use crate::collision::{CollisionStage, StepFrame, Verdict};
 use crate::math::{Real, Vec3};
 use crate::selfcollision::SelfReport;
-use crate::solver::{self, ClothState, Filter, Scheme, SolveReport};
+use crate::solver::{self, ClothState, Scheme, SolveReport};
 use crate::spec::IntegratorKind;
 
 /// Redos of one step's solve when particles cross a surface mid-step;
@@ -173,7 +174,23 @@ pub fn step(
                     &ws.constraints,
                 );
                 let self_collision = clock.run(Stage::SelfCollision, || {
-                    keep_apart(ws, &frame, &mut run.state)
+                    let Some(cloth) = &mut ws.self_collision else {
+                        return SelfReport::default();
+                    };
+                    ApartStage {
+                        cloth,
+                        scratch: &mut ws.apart,
+                        filter: &ws.constraints.filter,
+                        collision: &mut ws.collision,
+                        x0: &ws.step_start.x,
+                        moved: &mut ws.moved,
+                    }
+                    .run(
+                        &frame,
+                        world.obstacles.as_ref(),
+                        &mut run.state,
+                        &mut run.contacts,
+                    )
                 });
                 // BDF2's memory: this step's motion, before the warm start
                 // is corrected below.
@@ -219,28 +236,4 @@ fn update(
             quantity: e.quantity,
         }
     })
-}
-
-/// The self-collision stage: the accepted motion `ws.moved` from
-/// `ws.step_start` corrected so the cloth does not pass through itself;
-/// particles held by pins or obstacle contacts do not yield.
-fn keep_apart(
-    ws: &mut Workspace,
-    frame: &StepFrame<'_>,
-    state: &mut crate::solver::ClothState,
-) -> SelfReport {
-    let Some(sc) = &mut ws.self_collision else {
-        return SelfReport::default();
-    };
-    for (held, f) in ws.held.iter_mut().zip(&ws.constraints.filter) {
-        *held = *f != Filter::Free;
-    }
-    sc.resolve(
-        &ws.step_start.x,
-        frame.mass,
-        &ws.held,
-        frame.h,
-        state,
-        &mut ws.moved,
-    )
 }

@@ -1,6 +1,7 @@
 //! Scratch memory of a running simulation: everything a step writes and
 //! the next step overwrites, kept only so that nothing allocates per step.
 
+use super::apart::ApartScratch;
 use super::state::RunState;
 use super::world::World;
 use crate::collision::CollisionScratch;
@@ -26,8 +27,8 @@ pub struct Workspace {
     pub moved: Vec<crate::math::Vec3>,
     /// The cloth's self-collision (`None` when the scene turns it off).
     pub self_collision: Option<SelfCollision>,
-    /// Which particles are held (pinned or on an obstacle) this step.
-    pub held: Vec<bool>,
+    /// The self-collision stage's buffers.
+    pub apart: ApartScratch,
 }
 
 impl Workspace {
@@ -48,7 +49,7 @@ impl Workspace {
                 .cloth
                 .self_thickness
                 .map(|t| SelfCollision::new(&world.grid, t)),
-            held: vec![false; n],
+            apart: ApartScratch::default(),
         }
     }
 
