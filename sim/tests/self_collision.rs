@@ -43,6 +43,8 @@ fn run(json: &str) -> Outcome {
             f.frame
         );
         out.crossings.push(count_crossings(&mut mesh, x));
+        // The frame's statistics count the same thing.
+        assert_eq!(Some(&f.self_crossings), out.crossings.last());
         out.stretch = out.stretch.max(f.max_stretch);
         out.min_distance = match (out.min_distance, f.min_signed_distance) {
             (Some(a), Some(b)) => Some(a.min(b)),

@@ -113,4 +113,10 @@ impl SelfCollision {
         }
         report
     }
+
+    /// The exact number of cloth edges through cloth triangles at `x`
+    /// ([`count_crossings`]): zero whenever the response did its work.
+    pub fn crossings(&mut self, x: &[Vec3]) -> usize {
+        count_crossings(&mut self.mesh, x)
+    }
 }

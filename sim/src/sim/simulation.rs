@@ -157,6 +157,7 @@ impl Simulation {
             impact_zones: 0,
             self_failsafe_steps: 0,
             self_collision_seconds: 0.0,
+            self_crossings: 0,
         }
     }
 
@@ -188,6 +189,11 @@ impl Simulation {
         self.run.state.time = (self.run.frame + 1) as Real * self.world.scene.frame_dt();
         self.run.frame += 1;
         let counters = self.ws.collision.take_counters();
+        let self_crossings = self
+            .ws
+            .self_collision
+            .as_mut()
+            .map_or(0, |sc| sc.crossings(&self.run.state.x));
         let stats = FrameStats {
             steps: acc.steps,
             cg_iterations: acc.iterations,
@@ -208,6 +214,7 @@ impl Simulation {
             impact_zones: acc.self_collision.zones,
             self_failsafe_steps: acc.self_failsafe_steps,
             self_collision_seconds: acc.times.get(super::stage::Stage::SelfCollision),
+            self_crossings,
             ..self.snapshot_stats()
         };
         if let Some(p) = control.progress {

@@ -72,6 +72,11 @@ pub struct FrameStats {
     /// Self-collision wall time during the frame, seconds.
     #[serde(default)]
     pub self_collision_seconds: f64,
+    /// Cloth edges through cloth triangles at the frame (the exact count
+    /// of `selfcollision::count_crossings`; 0 with self-collision off,
+    /// where it is not counted).
+    #[serde(default)]
+    pub self_crossings: usize,
 }
 
 /// A whole run's statistics (`stats.json`).
@@ -131,6 +136,9 @@ pub struct RunStats {
     pub self_failsafe_steps: usize,
     /// Self-collision wall time, seconds.
     pub self_collision_seconds: f64,
+    /// Most cloth edges through cloth triangles at any frame (0 with
+    /// self-collision off, where it is not counted).
+    pub self_crossings_max: usize,
     /// Smallest signed distance to a true obstacle surface over all frames
     /// (negative = inside); `None` without obstacles.
     pub min_signed_distance: Option<f64>,
@@ -184,6 +192,7 @@ impl StatsRecorder {
                 impact_zones: 0,
                 self_failsafe_steps: 0,
                 self_collision_seconds: 0.0,
+                self_crossings_max: 0,
                 min_signed_distance: None,
                 max_stretch: 0.0,
                 max_stretch_any_frame: 0.0,
@@ -218,6 +227,7 @@ impl StatsRecorder {
         s.impact_zones += f.impact_zones;
         s.self_failsafe_steps += f.self_failsafe_steps;
         s.self_collision_seconds += f.self_collision_seconds;
+        s.self_crossings_max = s.self_crossings_max.max(f.self_crossings);
         s.min_signed_distance = match (s.min_signed_distance, f.min_signed_distance) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),

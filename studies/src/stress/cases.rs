@@ -4,7 +4,10 @@
 //! the step (1e-4 .. 1/30 s), the stiffness ratio (stretch/bend 1e3 ..
 //! 1e8), the start (a crumpled cloth), speed (a 10 m/s impact, a table
 //! cloth pulled at 0.5 .. 8 m/s), and geometry finer than the cloth (a
-//! 2 mm blade, a bed of needles, a spinning sphere with friction).
+//! 2 mm blade, a bed of needles, a spinning sphere with friction), and
+//! self-collision (a cloth folded onto itself in 0.3 s, a strip twisted
+//! twice a second), where no frame may have a cloth edge through the
+//! cloth.
 
 use super::case::Case;
 use drapery_sim::spec::{
@@ -61,6 +64,8 @@ pub fn cases(n: u32) -> Vec<Case> {
             tablecloth_pull(n, v),
         ));
     }
+    out.push(case("fast fold".into(), fast_fold(n)));
+    out.push(case("tight twist".into(), tight_twist(n)));
     out
 }
 
@@ -306,6 +311,58 @@ fn tablecloth_pull(n: u32, speed: f64) -> Spec {
     )
 }
 
+/// A cloth lying on the floor whose far edge is lifted and laid over the
+/// near one in 0.3 s (up to ~4 m/s): half the cloth lands on the other
+/// half, with self-collision on.
+fn fast_fold(n: u32) -> Spec {
+    let key = |time: f64, translation: [f64; 3]| Keyframe {
+        time,
+        translation,
+        rotation: [0.0, 0.0, 0.0, 1.0],
+    };
+    let edge = PinEntry::Group(PinGroup {
+        particles: (0..n).map(|i| [i, n - 1]).collect(),
+        motion: Some(Motion {
+            keyframes: Some(vec![
+                key(0.0, [0.0, 0.0, 0.0]),
+                key(0.15, [0.0, -0.5, 0.35]),
+                key(0.3, [0.0, -0.97, 0.03]),
+            ]),
+            ..Motion::default()
+        }),
+    });
+    let mut c = cloth(n, [-0.5, -0.5, 0.02], vec![edge]);
+    c.self_collision = true;
+    scene("fast-fold", c, vec![floor(0.0)], DT, 0.8)
+}
+
+/// A 1 m x 0.2 m silk strip, one short edge held, the other turned about
+/// the long axis twice a second while it moves 0.3 m in: it twists, then
+/// coils onto itself, with self-collision on.
+fn tight_twist(n: u32) -> Spec {
+    let m = (n / 5).max(4);
+    let mut pins: Vec<PinEntry> = (0..m).map(|j| [0, j].into()).collect();
+    pins.push(PinEntry::Group(PinGroup {
+        particles: (0..m).map(|j| [n - 1, j]).collect(),
+        motion: Some(Motion {
+            velocity: Some([-0.3, 0.0, 0.0]),
+            angular_velocity: Some([2.0 * std::f64::consts::TAU, 0.0, 0.0]),
+            pivot: Some([0.5, 0.0, 0.5]),
+            ..Motion::default()
+        }),
+    }));
+    let strip = ClothSpec {
+        grid: [n, m],
+        size: [1.0, 0.2],
+        origin: [-0.5, -0.1, 0.5],
+        self_collision: true,
+        ..cloth(n, [0.0; 3], pins)
+    };
+    let mut s = scene("tight-twist", strip, vec![], DT, 1.0);
+    s.material = MaterialSpec::Preset("silk".into());
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -315,7 +372,7 @@ mod tests {
     fn every_case_is_a_valid_scene_at_small_and_full_size() {
         for n in [6, 30] {
             let all = cases(n);
-            assert_eq!(all.len(), 12 + 6 + 1 + 4 + 5);
+            assert_eq!(all.len(), 12 + 6 + 1 + 4 + 5 + 2);
             for c in &all {
                 if let Err(e) = c.spec.validate(&Limits::default()) {
                     panic!("{}: {e}", c.name);

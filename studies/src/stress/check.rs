@@ -1,6 +1,7 @@
 //! Running a case and checking it: finite, stretch within its bound, no
-//! particle more than [`MAX_PENETRATION`] inside a true surface, every
-//! solve converged.
+//! particle more than [`MAX_PENETRATION`] inside a true surface, no cloth
+//! edge through the cloth at any frame (cases with self-collision on),
+//! every solve converged.
 
 use drapery_sim::spec::{Limits, TimeStep};
 
@@ -26,6 +27,9 @@ pub struct Outcome {
     /// surface at any frame, metres (negative: inside); `None` without
     /// obstacles.
     pub min_signed_distance: Option<f64>,
+    /// Most cloth edges through cloth triangles at any frame; `None` with
+    /// self-collision off.
+    pub self_crossings: Option<usize>,
     /// Most CG iterations of any one solve.
     pub cg_iterations_max: usize,
     /// Solves that stopped at the iteration cap.
@@ -54,6 +58,7 @@ pub fn run(case: &Case) -> Outcome {
         finite: false,
         max_stretch: f64::NAN,
         min_signed_distance: None,
+        self_crossings: None,
         cg_iterations_max: 0,
         unconverged_solves: 0,
         wall_seconds: 0.0,
@@ -80,6 +85,7 @@ pub fn run(case: &Case) -> Outcome {
     out.finite = stats.finite;
     out.max_stretch = stats.max_stretch_any_frame;
     out.min_signed_distance = stats.min_signed_distance;
+    out.self_crossings = scene.cloth.self_thickness.map(|_| stats.self_crossings_max);
     out.cg_iterations_max = stats.cg_iterations_max;
     out.unconverged_solves = stats.unconverged_solves;
     out.wall_seconds = stats.wall_seconds;
@@ -104,6 +110,10 @@ pub fn run(case: &Case) -> Outcome {
     if let (false, Some(d)) = (outside, stats.min_signed_distance) {
         out.failures
             .push(format!("a particle {:.2} mm inside an obstacle", -d * 1e3));
+    }
+    if let Some(n) = out.self_crossings.filter(|&n| n > 0) {
+        out.failures
+            .push(format!("{n} cloth edges through the cloth at a frame"));
     }
     if stats.unconverged_solves > 0 {
         out.failures.push(format!(
