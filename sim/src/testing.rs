@@ -7,3 +7,31 @@ pub fn scene_from_json(json: &str) -> Scene {
     let spec: Spec = serde_json::from_str(json).expect("spec parses");
     spec.validate(&Limits::default()).expect("spec validates")
 }
+
+/// A cotton cloth on `grid` at `x`, `v` and its system for one backward
+/// Euler step of `h` under gravity with position corrections `y`.
+#[cfg(test)]
+pub fn cotton_system(
+    grid: &crate::cloth::Grid,
+    x: &[crate::math::Vec3],
+    v: &[crate::math::Vec3],
+    y: &[crate::math::Vec3],
+    h: crate::math::Real,
+) -> (crate::cloth::ForceModel, crate::solver::System) {
+    let material = crate::spec::preset("cotton").expect("preset");
+    let model = crate::cloth::ForceModel::new(grid, &material);
+    let mut sys = crate::solver::System::new(grid.len(), &model);
+    sys.assemble(
+        &model,
+        &crate::solver::AssemblyInput {
+            x,
+            predicted: false,
+            v,
+            y,
+            mass: &grid.mass,
+            gravity: crate::math::Vec3::new(0.0, 0.0, -9.81),
+            scheme: crate::solver::Scheme::euler(h),
+        },
+    );
+    (model, sys)
+}

@@ -209,17 +209,6 @@ impl<L: AngleLaw> Force for AngleForce<L> {
             return; // a collapsed arm has no angle; its springs resist it
         };
         let d = L::eval(&g, el.c1, el.c0, mode);
-        let [g1, g2] = d.grad;
-        let [[h11, h12], [h21, h22]] = d.hess;
-        // Arms e1 = a - b, e2 = c - b: forces -∂E/∂x and Jacobian
-        // blocks -∂²E/∂x∂x, written out (b sees both arms, negated).
-        let f = [-g1, g1 + g2, -g2];
-        let (s1, s2) = (h11 + h12, h21 + h22);
-        let k = [
-            [-h11, s1, -h12],
-            [h11 + h21, -(s1 + s2), h12 + h22],
-            [-h21, s2, -h22],
-        ];
-        sink.add(e, &el.idx, &f, Some(&k), None);
+        sink.add_arms(e, el.idx, d.grad, &d.hess);
     }
 }

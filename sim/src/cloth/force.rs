@@ -38,6 +38,16 @@ pub trait Sink {
         let dfdv = c.map(|c| pair_blocks(Vec3::zeros(), *c).1);
         self.add(element, &idx, &f, k.map(|_| &dfdx), dfdv.as_ref());
     }
+
+    /// Adds a three-particle element `[a, b, c]` written in terms of its
+    /// arms `e1 = x_a - x_b`, `e2 = x_c - x_b`: `g = ∂E/∂e` and the arm
+    /// blocks `h = ∂²E/∂e_i∂e_j` ([`arm_blocks`] gives the particle
+    /// blocks). A sink may override it to use the structure.
+    #[inline]
+    fn add_arms(&mut self, element: usize, idx: [usize; 3], g: [Vec3; 2], h: &[[Mat3; 2]; 2]) {
+        let (f, dfdx) = arm_blocks(g, h);
+        self.add(element, &idx, &f, Some(&dfdx), None);
+    }
 }
 
 /// A force term of the cloth (method.md §1, eq. [4]).
@@ -71,6 +81,24 @@ pub trait Force {
             self.add_element(e, x, v, mode, sink);
         }
     }
+}
+
+/// Maps `-∇E` and `-∇²E` of a three-particle element written in terms of
+/// its arms `e1 = x_a - x_b`, `e2 = x_c - x_b` to the particles: `b` sees
+/// both arms, negated.
+#[inline]
+pub fn arm_blocks(g: [Vec3; 2], h: &[[Mat3; 2]; 2]) -> ([Vec3; 3], [[Mat3; 3]; 3]) {
+    let [g1, g2] = g;
+    let [[h11, h12], [h21, h22]] = *h;
+    let (s1, s2) = (h11 + h12, h21 + h22);
+    (
+        [-g1, g1 + g2, -g2],
+        [
+            [-h11, s1, -h12],
+            [h11 + h21, -(s1 + s2), h12 + h22],
+            [-h21, s2, -h22],
+        ],
+    )
 }
 
 /// Maps `-∇E` and `-∇²E` of a two-particle element written in terms of

@@ -93,9 +93,7 @@ impl Preconditioner for AlternatingLines {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::ForceModel;
     use crate::cloth::fdcheck::random_configuration;
-    use crate::solver::assemble::{AssemblyInput, System};
     use crate::solver::mpcg::{MpcgOptions, MpcgWorkspace, Problem, SolveStatus, solve};
     use crate::solver::{BlockJacobi, Constraints};
 
@@ -105,23 +103,9 @@ mod tests {
     #[test]
     fn line_preconditioner_solves_constrained_cloth_systems() {
         let (grid, x, v) = random_configuration(17, 13, 0.2, 4);
-        let material = crate::spec::preset("cotton").expect("preset");
-        let model = ForceModel::new(&grid, &material);
         let n = grid.len();
-        let mut sys = System::new(n, &model);
-        let y = vec![Vec3::zeros(); n];
-        sys.assemble(
-            &model,
-            &AssemblyInput {
-                x: &x,
-                predicted: false,
-                v: &v,
-                y: &y,
-                mass: &grid.mass,
-                gravity: Vec3::new(0.0, 0.0, -9.81),
-                scheme: crate::solver::Scheme::euler(1.0 / 60.0),
-            },
-        );
+        let y = vec![Vec3::zeros(); grid.len()];
+        let (_, sys) = crate::testing::cotton_system(&grid, &x, &v, &y, 1.0 / 60.0);
         let mut c = Constraints::free(n);
         c.fix(0, Vec3::new(0.1, 0.0, 0.0), Vec3::zeros());
         for i in (20..n).step_by(7) {

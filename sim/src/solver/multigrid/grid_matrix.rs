@@ -266,9 +266,7 @@ pub fn to_f32(v: &Vec3) -> Vec3f {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::ForceModel;
     use crate::cloth::fdcheck::random_configuration;
-    use crate::solver::{AssemblyInput, System};
 
     /// The structured copy of a real cloth matrix multiplies like the
     /// sparse original (to single precision), and prefiltering keeps the
@@ -276,22 +274,8 @@ mod tests {
     #[test]
     fn structured_copy_matches_the_sparse_matrix() {
         let (grid, x, v) = random_configuration(9, 7, 0.2, 3);
-        let material = crate::spec::preset("cotton").expect("preset");
-        let model = ForceModel::new(&grid, &material);
-        let mut sys = System::new(grid.len(), &model);
         let y = vec![Vec3::zeros(); grid.len()];
-        sys.assemble(
-            &model,
-            &AssemblyInput {
-                x: &x,
-                predicted: false,
-                v: &v,
-                y: &y,
-                mass: &grid.mass,
-                gravity: Vec3::new(0.0, 0.0, -9.81),
-                scheme: crate::solver::Scheme::euler(1.0 / 60.0),
-            },
-        );
+        let (_, sys) = crate::testing::cotton_system(&grid, &x, &v, &y, 1.0 / 60.0);
         let offsets = GridMatrix::offsets_of(&sys.a, grid.nu);
         assert_eq!(offsets.len(), 13, "{offsets:?}");
         let mut g = GridMatrix::new(grid.nu, grid.nv, offsets);

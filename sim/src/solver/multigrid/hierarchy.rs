@@ -219,10 +219,9 @@ impl Preconditioner for Multigrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::ForceModel;
     use crate::cloth::fdcheck::random_configuration;
     use crate::solver::mpcg::{MpcgOptions, MpcgWorkspace, Problem, SolveStatus, solve};
-    use crate::solver::{AlternatingLines, AssemblyInput, Constraints, System};
+    use crate::solver::{AlternatingLines, Constraints};
 
     /// CG iterations to 1e-8 on a folded cotton cloth with a pinned corner
     /// and plane contacts, `n x n` particles, and the solution.
@@ -238,22 +237,8 @@ mod tests {
                 Vec3::new(p.x * 0.98, p.y, z)
             })
             .collect();
-        let material = crate::spec::preset("cotton").expect("preset");
-        let model = ForceModel::new(&grid, &material);
-        let mut sys = System::new(grid.len(), &model);
         let y = vec![Vec3::zeros(); grid.len()];
-        sys.assemble(
-            &model,
-            &AssemblyInput {
-                x: &x,
-                predicted: false,
-                v: &v,
-                y: &y,
-                mass: &grid.mass,
-                gravity: Vec3::new(0.0, 0.0, -9.81),
-                scheme: crate::solver::Scheme::euler(1.0 / 240.0),
-            },
-        );
+        let (_, sys) = crate::testing::cotton_system(&grid, &x, &v, &y, 1.0 / 240.0);
         let mut c = Constraints::free(grid.len());
         c.fix(0, Vec3::new(0.1, 0.0, 0.0), Vec3::zeros());
         for i in (n..grid.len()).step_by(5) {
