@@ -5,7 +5,7 @@ use std::process::Command;
 
 #[test]
 fn bench_scale_writes_csv_and_svg() {
-    let out = std::env::temp_dir().join(format!("drapery-bench-{}", uuid::Uuid::now_v7()));
+    let out = temp_dir("bench");
     let status = Command::new(env!("CARGO_BIN_EXE_drapery"))
         .args([
             "bench",
@@ -49,8 +49,11 @@ fn bench_scale_writes_csv_and_svg() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--sizes"));
 }
 
+/// A fresh directory under cargo's scratch directory for tests
+/// (`target/tmp`), never the system's temp dir.
 fn temp_dir(what: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("drapery-{what}-{}", uuid::Uuid::now_v7()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("drapery-{what}-{}", uuid::Uuid::now_v7()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }

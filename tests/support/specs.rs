@@ -4,9 +4,12 @@ use std::path::PathBuf;
 
 use serde_json::{Value, json};
 
-/// A fresh data directory under the system's temp dir.
+/// A fresh data directory under cargo's scratch directory for tests
+/// (`target/tmp`): kept for a look after a failure, gone with `cargo
+/// clean`, never left in the system's temp dir.
 pub fn data_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("drapery-test-{tag}-{}", uuid::Uuid::now_v7()));
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("drapery-test-{tag}-{}", uuid::Uuid::now_v7()));
     std::fs::create_dir_all(&d).expect("temp dir");
     d
 }
