@@ -96,7 +96,7 @@ mod tests {
     use clap::Parser;
 
     fn jobs() -> Arc<Jobs> {
-        let dir = std::env::temp_dir().join(format!("drapery-worker-{}", uuid::Uuid::now_v7()));
+        let dir = crate::test_dir("worker");
         let argv = [
             "drapery",
             "serve",

@@ -95,7 +95,7 @@ mod tests {
 
     #[test]
     fn a_reference_round_trips_and_a_truncated_one_is_refused() {
-        let dir = std::env::temp_dir().join(format!("drapery-ref-{}", std::process::id()));
+        let dir = crate::test_dir("ref");
         std::fs::create_dir_all(&dir).expect("dir");
         let path = dir.join("reference.bin");
         let r = Reference {

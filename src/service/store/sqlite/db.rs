@@ -98,6 +98,6 @@ impl FromSql for Status {
 /// A fresh store in a temporary directory.
 #[cfg(test)]
 pub(super) fn temp_store() -> Sqlite {
-    let d = std::env::temp_dir().join(format!("drapery-store-{}", uuid::Uuid::now_v7()));
+    let d = crate::test_dir("store");
     Sqlite::open(&d).expect("opens")
 }

@@ -136,7 +136,7 @@ mod tests {
 
     #[test]
     fn frames_and_checkpoints_survive_reopening() {
-        let dir = std::env::temp_dir().join(format!("drapery-store-{}", uuid::Uuid::now_v7()));
+        let dir = crate::test_dir("store");
         let id = JobId::generate();
         {
             let s = Sqlite::open(&dir).expect("opens");
