@@ -23,7 +23,7 @@ pub use angle::{AngleElement, AngleForce, AngleLaw, THRESHOLD_SMOOTHING};
 pub use bend::Bend;
 pub use damping::SpringDamping;
 pub use drag::AirDrag;
-pub use force::{Force, Sink};
+pub use force::{Force, Sink, arm_blocks};
 pub use grid::Grid;
 pub use model::ForceModel;
 pub use shear::Shear;

@@ -183,9 +183,9 @@ impl CollisionStage<'_> {
     /// end) that `skip` does not exclude and that lies within
     /// `margin` outside an obstacle's offset surface (or inside it), with
     /// that surface's outward normal `n` there, as `(i, n)`: the cloth
-    /// resting on an
-    /// obstacle without a contact (one just released, or landed by the
-    /// self-collision response), which the response must not push in.
+    /// resting on an obstacle without a contact (one just released, or
+    /// landed by the self-collision response), which the response must
+    /// not push in.
     pub fn near_surfaces(
         &mut self,
         x: &[Vec3],

@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use super::bsr::BlockCsr;
 use super::scheme::Scheme;
-use crate::cloth::{Force, ForceModel, Sink};
+use crate::cloth::{Force, ForceModel, Sink, arm_blocks};
 use crate::math::{Mat3, Real, Vec3};
 use crate::spec::JacobianMode;
 
@@ -379,17 +379,13 @@ impl Sink for AssemblySink<'_> {
         );
         // ∂²E/∂e∂e times the arms' displacements.
         let (r1, r2) = (h11 * d1 + h12 * d2, h21 * d1 + h22 * d2);
-        let (f1, f2) = (g[0] + r1, g[1] + r2);
-        let rhs = [-f1, f1 + f2, -f2];
         let s = self.h * self.h;
-        let (k11, k12, k21, k22) = (h11 * s, h12 * s, h21 * s, h22 * s);
-        let (s1, s2) = (k11 + k12, k21 + k22);
-        // A -= h'² K, with K the particle blocks of `arm_blocks`.
-        let blocks = [
-            [-k11, s1, -k12],
-            [k11 + k21, -(s1 + s2), k12 + k22],
-            [-k21, s2, -k22],
-        ];
+        // The particles' `f + K w` and `h'² K` (A -= h'² K), both mapped
+        // from the arms as the generic path maps them.
+        let (rhs, blocks) = arm_blocks(
+            [g[0] + r1, g[1] + r2],
+            &[[h11 * s, h12 * s], [h21 * s, h22 * s]],
+        );
         let slots = &self.slots[element * 9..element * 9 + 9];
         for (a, row) in blocks.iter().enumerate() {
             let p = idx[a];
