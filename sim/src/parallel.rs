@@ -20,11 +20,14 @@ use crate::math::{Real, Vec3};
 
 /// Elements per chunk.
 pub const CHUNK: usize = 512;
-/// Fewest elements worth spreading over threads. A vector element is a
-/// few nanoseconds; on the 2-core machine the benchmarks run on, loops of
-/// 10⁴ elements (a 100² cloth's CG vectors) were slower spread than on
-/// one thread (the second core's wake-up outweighs a 5–40 µs loop).
-pub const PARALLEL_MIN: usize = 32768;
+/// Fewest elements worth spreading over threads: vector loops and the
+/// block-sparse product. Since the solver runs on a pool thread (a
+/// fork-join of two halves costs ~5 µs on the 2-core benchmark machine,
+/// docs/benchmarks.md 1e), a 100² cloth's loops (10⁴ elements, 10–300 µs)
+/// gain from the second core: its solve stage took 0.70 s at a threshold
+/// of 32,768 and 0.45 s at 4,096 (with the sweeps' threshold lowered too,
+/// docs/benchmarks.md 1g); at 60² a lower threshold gained nothing.
+pub const PARALLEL_MIN: usize = 4096;
 /// Fewest values of a [`for_rows`] table worth spreading when each is
 /// a microsecond of work (a node's factor in four SIMD lanes, a coarse
 /// row's Galerkin terms).

@@ -2,8 +2,9 @@
 //! exactly in a process with another thread count: every parallel loop of
 //! the core cuts its work into fixed chunks and sums partials in order.
 //!
-//! The cloth is 70 x 70 so the parallel paths run (assembly bands, chunked
-//! products and sums, lines of a colour at once, Galerkin rows).
+//! The cloth is 80 x 80 so every parallel path runs (assembly bands,
+//! chunked products and sums from 4,096 particles, the packs of a line
+//! colour from 512 pack nodes, Galerkin rows).
 
 mod common;
 
@@ -13,7 +14,7 @@ use drapery_sim::spec::Scene;
 
 fn drape(preconditioner: &str) -> Scene {
     common::scene_from_json(&format!(
-        r#"{{"cloth": {{"grid": [70, 70], "size": [1, 1], "origin": [-0.5, -0.5, 0.3]}},
+        r#"{{"cloth": {{"grid": [80, 80], "size": [1, 1], "origin": [-0.5, -0.5, 0.3]}},
             "material": "cotton",
             "obstacles": [{{"sphere": {{"center": [0, 0, 0], "radius": 0.25}}, "friction": 0.4}}],
             "duration": 0.2, "fps": 60,

@@ -95,9 +95,10 @@ pub enum Entry {
 }
 
 /// Fewest pack nodes of one colour worth spreading over threads: a pack
-/// node is ~0.1 µs, and below this a colour's work does not pay for
-/// waking another core (at 100² two threads made the sweeps 20 % slower).
-const SWEEP_PARALLEL_MIN: usize = 8192;
+/// node is ~0.1 µs, and a colour of fewer does not pay for a fork-join
+/// (~5 µs). A 100² cloth's colours (~900 pack nodes) are spread; a 30²
+/// cloth's (~80) are not.
+const SWEEP_PARALLEL_MIN: usize = 512;
 
 /// An off-line neighbour outside the grid, or a padding lane.
 const MISSING: u32 = u32::MAX;
