@@ -1,11 +1,15 @@
 //! `drapery bench` end to end, at toy sizes (the studies themselves are
 //! run by hand and reported in docs; speed is never asserted in tests).
 
+mod support;
+
 use std::process::Command;
+
+use support::data_dir;
 
 #[test]
 fn bench_scale_writes_csv_and_svg() {
-    let out = temp_dir("bench");
+    let out = data_dir("bench");
     let status = Command::new(env!("CARGO_BIN_EXE_drapery"))
         .args([
             "bench",
@@ -49,15 +53,6 @@ fn bench_scale_writes_csv_and_svg() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--sizes"));
 }
 
-/// A fresh directory under cargo's scratch directory for tests
-/// (`target/tmp`), never the system's temp dir.
-fn temp_dir(what: &str) -> std::path::PathBuf {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("drapery-{what}-{}", uuid::Uuid::now_v7()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
 fn drapery(args: &[&str], dirs: &[&std::path::Path]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_drapery"))
         .args(args)
@@ -86,7 +81,7 @@ fn column<'a>(csv: &'a str, name: &str) -> Vec<&'a str> {
 
 #[test]
 fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference() {
-    let dir = temp_dir("precision");
+    let dir = data_dir("precision");
     let spec = dir.join("hanging.json");
     std::fs::write(&spec, HANGING).expect("spec");
     let first = dir.join("first");
@@ -242,7 +237,7 @@ fn bench_precision_shows_euler_first_order_bdf2_second_and_reuses_its_reference(
 
 #[test]
 fn bench_stress_writes_csv_and_replayable_specs() {
-    let out = temp_dir("stress");
+    let out = data_dir("stress");
     let o = drapery(
         &[
             "bench",
@@ -286,7 +281,7 @@ fn precision_and_scale_run_on_every_bundled_scene() {
     let mut names = Vec::new();
     for entry in std::fs::read_dir(&scenes).expect("examples/scenes") {
         let spec = entry.expect("entry").path();
-        let out = temp_dir("every-scene");
+        let out = data_dir("every-scene");
         let o = drapery(
             &[
                 "bench",
