@@ -150,7 +150,9 @@ scene.add(sun);
 
 const clothMaterial = new THREE.MeshStandardMaterial({ color: 0xffffff, vertexColors: true, side: THREE.DoubleSide, roughness: 0.8 });
 const obstacleMaterial = new THREE.MeshStandardMaterial({ color: 0x8c96a3, roughness: 0.6, metalness: 0.1, side: THREE.DoubleSide });
-const CLOTH = new THREE.Color(0x3b7dd8), CONTACT = new THREE.Color(0xf08c2e);
+// Cloth, particles held by an obstacle, particles touching another part of
+// the cloth (self contact): the legend under the view uses the same colours.
+const CLOTH = new THREE.Color(0x3b7dd8), CONTACT = new THREE.Color(0xf08c2e), SELF_CONTACT = new THREE.Color(0xd6336c);
 
 function resize() {
   const { clientWidth: w, clientHeight: h } = $("view");
@@ -253,7 +255,7 @@ function frameCamera() {
   controls.update();
 }
 
-/** Puts frame `k` on screen: cloth positions, contacts, obstacle poses. */
+/** Puts frame `k` on screen: cloth positions, contacts and self contacts, obstacle poses. */
 function show(k) {
   const x = player.frames[k];
   if (!x || !player.cloth) return;
@@ -267,6 +269,8 @@ function show(k) {
   const colors = g.attributes.color.array;
   for (let i = 0; i < colors.length / 3; i++) CLOTH.toArray(colors, 3 * i);
   for (const p of s.contact_particles || []) CONTACT.toArray(colors, 3 * p);
+  for (const p of s.self_contact_particles || []) SELF_CONTACT.toArray(colors, 3 * p);
+  $("self-contacts").textContent = String((s.self_contact_particles || []).length);
   g.attributes.color.needsUpdate = true;
   (s.obstacles || []).forEach((pose, j) => {
     const m = player.obstacles[j];

@@ -114,7 +114,8 @@ impl Stats {
 /// statistics (`time`, `steps`, `cg_iterations`, `contacts`,
 /// `kinetic_energy`, `max_stretch`, `step_seconds`, ...), plus, with
 /// obstacles, each obstacle's pose (so a viewer moves the hello's meshes)
-/// and the particles in contact (so it can highlight them).
+/// and the particles in contact, and with self-collision the particles in
+/// self contact (so it can highlight both).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct FrameReport {
     /// The core's `FrameStats`, field by field.
@@ -127,6 +128,10 @@ pub struct FrameReport {
     /// Indices of the particles in contact at the frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_particles: Option<Vec<u32>>,
+    /// Indices of the particles in contact with another part of the cloth
+    /// in the frame's last step (self-collision on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub self_contact_particles: Option<Vec<u32>>,
 }
 
 /// A rigid pose.
@@ -318,6 +323,7 @@ mod tests {
                 rotation: [0.0, 0.0, 0.0, 1.0],
             }]),
             contact_particles: Some(vec![4, 5]),
+            self_contact_particles: None,
         };
         let text = to_json(&report);
         assert_eq!(
@@ -328,6 +334,7 @@ mod tests {
             solver: Map::new(),
             obstacles: None,
             contact_particles: None,
+            self_contact_particles: None,
         };
         assert_eq!(to_json(&plain), "{}");
         let s = v_of(&StreamMessage::Stats(Stats::new(2, &text)));

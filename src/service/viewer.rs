@@ -101,6 +101,10 @@ const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../examples/scenes/sphere-drape-100.json"),
     ),
     (
+        "sphere-drape-30-self-collision",
+        include_str!("../../examples/scenes/sphere-drape-30-self-collision.json"),
+    ),
+    (
         "table-drape",
         include_str!("../../examples/scenes/table-drape.json"),
     ),

@@ -2,7 +2,8 @@
 // on a free port, drives Debian's Chromium with playwright-core, submits
 // sphere-drape-30 through the page, watches it play live, checks the
 // canvas is drawn and the frame counter advances, then reopens the
-// finished job, scrubs, and saves screenshots to $E2E_ARTIFACTS.
+// finished job, scrubs, runs the self-collision example until self
+// contacts are highlighted, and saves screenshots to $E2E_ARTIFACTS.
 import { spawn } from "node:child_process";
 import { mkdirSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
@@ -15,6 +16,31 @@ const artifacts = resolve(process.env.E2E_ARTIFACTS || "artifacts");
 mkdirSync(artifacts, { recursive: true });
 const data = mkdtempSync(join(tmpdir(), "drapery-e2e-"));
 const started = Date.now();
+
+/** Samples the view's canvas: pixels drawn (not background), lit blue
+ * cloth, distinct colours, and self-contact pink. */
+function canvasPixels(page) {
+  return page.evaluate(() => {
+    const c = document.querySelector("#view canvas");
+    const t = Object.assign(document.createElement("canvas"), { width: c.width, height: c.height });
+    const ctx = t.getContext("2d");
+    ctx.drawImage(c, 0, 0);
+    const d = ctx.getImageData(0, 0, t.width, t.height).data;
+    let samples = 0, drawn = 0, cloth = 0, pink = 0;
+    const colours = new Set();
+    for (let i = 0; i < d.length; i += 4 * 13) {
+      samples++;
+      const [r, g, b] = [d[i], d[i + 1], d[i + 2]];
+      if (Math.abs(r - 0xdf) + Math.abs(g - 0xe3) + Math.abs(b - 0xe8) > 24) {
+        drawn++;
+        colours.add(((r >> 4) << 8) | ((g >> 4) << 4) | (b >> 4));
+        if (b > r + 40) cloth++;
+        if (r > g + 80 && b > g + 20) pink++;
+      }
+    }
+    return { samples, drawn, cloth, colours: colours.size, pink };
+  });
+}
 
 function check(ok, message) {
   if (!ok) throw new Error(`check failed: ${message}`);
@@ -64,25 +90,7 @@ try {
   check(second.frame > first.frame, `the frame counter advances while live (${first.frame} -> ${second.frame})`);
   check(first.last === 120, `the counter knows the job's 121 frames (${first.text})`);
 
-  const pixels = await page.evaluate(() => {
-    const c = document.querySelector("#view canvas");
-    const t = Object.assign(document.createElement("canvas"), { width: c.width, height: c.height });
-    const ctx = t.getContext("2d");
-    ctx.drawImage(c, 0, 0);
-    const d = ctx.getImageData(0, 0, t.width, t.height).data;
-    let samples = 0, drawn = 0, cloth = 0;
-    const colours = new Set();
-    for (let i = 0; i < d.length; i += 4 * 13) {
-      samples++;
-      const [r, g, b] = [d[i], d[i + 1], d[i + 2]];
-      if (Math.abs(r - 0xdf) + Math.abs(g - 0xe3) + Math.abs(b - 0xe8) > 24) {
-        drawn++;
-        colours.add(((r >> 4) << 8) | ((g >> 4) << 4) | (b >> 4));
-        if (b > r + 40) cloth++;
-      }
-    }
-    return { samples, drawn, cloth, colours: colours.size };
-  });
+  const pixels = await canvasPixels(page);
   check(pixels.drawn / pixels.samples > 0.03, `the canvas is not blank (${pixels.drawn} of ${pixels.samples} samples drawn)`);
   check(pixels.cloth > 50 && pixels.colours > 20, `the lit blue cloth shows (${pixels.cloth} cloth samples, ${pixels.colours} colours)`);
   await page.screenshot({ path: join(artifacts, "viewer-live.png") });
@@ -116,6 +124,15 @@ try {
     .filter((e) => !e.name.includes("/v1/") && !e.name.includes("/examples"))
     .reduce((n, e) => n + (e.transferSize || e.encodedBodySize || 0), 0));
   console.log(`page load size: ${size} bytes`);
+  // Self contacts: the example with self-collision on lists the particles
+  // touching another part of the cloth, and the view paints them pink.
+  await page.selectOption("#example", "sphere-drape-30-self-collision");
+  await page.click("#submit-example");
+  await page.waitForFunction(() => Number(document.querySelector("#self-contacts").textContent) > 0, null, { timeout: 120_000 });
+  const touching = await page.textContent("#self-contacts");
+  const { pink } = await canvasPixels(page);
+  check(pink > 0, `self contacts are highlighted (${touching} particles listed, ${pink} pink samples)`);
+  await page.screenshot({ path: join(artifacts, "viewer-self-contacts.png") });
   check(pageErrors.length === 0, `no page errors (${pageErrors.join("; ")})`);
 } finally {
   await browser.close();

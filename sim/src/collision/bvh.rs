@@ -199,7 +199,19 @@ impl Bvh {
 
     /// Calls `f(i, j)` once for every pair `i != j` of this hierarchy's
     /// primitives whose boxes overlap (in either order).
-    pub fn self_pairs(&self, mut f: impl FnMut(usize, usize)) {
+    pub fn self_pairs(&self, f: impl FnMut(usize, usize)) {
+        self.self_pairs_skipping(|_| false, f);
+    }
+
+    /// [`Bvh::self_pairs`] without the pairs that lie wholly under a node
+    /// for which `skip(node)` holds (nodes numbered as by
+    /// [`Bvh::fold_up`]): for a caller that knows a subtree's primitives
+    /// cannot interact with each other.
+    pub fn self_pairs_skipping(
+        &self,
+        skip: impl Fn(usize) -> bool,
+        mut f: impl FnMut(usize, usize),
+    ) {
         if self.nodes.is_empty() {
             return;
         }
@@ -207,6 +219,9 @@ impl Bvh {
         while let Some((a, b)) = stack.pop() {
             if a != b {
                 self.descend(self, a, b, &mut stack, &mut f);
+                continue;
+            }
+            if skip(a as usize) {
                 continue;
             }
             let na = &self.nodes[a as usize];
@@ -263,6 +278,26 @@ impl Bvh {
         }
     }
 
+    /// One value per node, computed bottom-up: `leaf(primitives)` at a
+    /// leaf, `merge(left, right)` at an inner node; `out[k]` is node `k`'s.
+    pub fn fold_up<T: Copy + Default>(
+        &self,
+        out: &mut Vec<T>,
+        mut leaf: impl FnMut(&[u32]) -> T,
+        merge: impl Fn(&T, &T) -> T,
+    ) {
+        out.clear();
+        out.resize(self.nodes.len(), T::default());
+        for k in (0..self.nodes.len()).rev() {
+            let n = &self.nodes[k];
+            out[k] = if n.count > 0 {
+                leaf(self.leaf(n))
+            } else {
+                merge(&out[k + 1], &out[n.start as usize])
+            };
+        }
+    }
+
     fn leaf(&self, n: &Node) -> &[u32] {
         let s = n.start as usize;
         &self.order[s..s + n.count as usize]
@@ -307,6 +342,58 @@ mod tests {
         }
         assert_eq!(found, brute);
     }
+
+    /// Skipping a node drops exactly the pairs with both primitives under
+    /// it; a fold up the tree sees every primitive once.
+    #[test]
+    fn skipped_nodes_drop_exactly_their_inner_pairs() {
+        let mut rng = StdRng::seed_from_u64(17);
+        let boxes = random_boxes(&mut rng, 300);
+        let bvh = Bvh::build(&boxes);
+        let mut under: Vec<Vec<usize>> = Vec::new();
+        bvh.fold_up(&mut Vec::<usize>::new(), |_| 0, |_, _| 0);
+        let mut counts = Vec::new();
+        bvh.fold_up(&mut counts, <[u32]>::len, |a, b| a + b);
+        assert_eq!(counts[0], 300);
+        // The primitives under each node, by walking it.
+        for k in 0..bvh.nodes.len() {
+            let mut stack = vec![k];
+            let mut prims = Vec::new();
+            while let Some(n) = stack.pop() {
+                let node = &bvh.nodes[n];
+                if node.count > 0 {
+                    prims.extend(bvh.leaf(node).iter().map(|&i| i as usize));
+                } else {
+                    stack.extend([n + 1, node.start as usize]);
+                }
+            }
+            assert_eq!(prims.len(), counts[k]);
+            under.push(prims);
+        }
+        let pairs = |skip: &dyn Fn(usize) -> bool| {
+            let mut found = Vec::new();
+            bvh.self_pairs_skipping(skip, |i, j| found.push((i.min(j), i.max(j))));
+            found.sort_unstable();
+            found
+        };
+        let all = pairs(&|_| false);
+        let mut with_inner_pairs = 0;
+        for skipped in (0..bvh.nodes.len()).step_by(7) {
+            let inside = &under[skipped];
+            let want: Vec<_> = all
+                .iter()
+                .copied()
+                .filter(|(i, j)| !(inside.contains(i) && inside.contains(j)))
+                .collect();
+            with_inner_pairs += usize::from(want.len() < all.len());
+            assert_eq!(pairs(&|k| k == skipped), want, "node {skipped}");
+        }
+        assert!(
+            with_inner_pairs >= 5,
+            "{with_inner_pairs} nodes had inner pairs"
+        );
+    }
+
     use rand::{RngExt, SeedableRng, rngs::StdRng};
 
     fn random_boxes(rng: &mut StdRng, n: usize) -> Vec<Aabb> {

@@ -5,7 +5,8 @@
 //! | file | owns |
 //! | --- | --- |
 //! | `geometry` | closest points, the segment–triangle crossing |
-//! | `topology` | the cloth's triangles and edges, their swept boxes and hierarchies |
+//! | `topology` | the cloth's triangles and edges, their owners, swept boxes and hierarchy |
+//! | `cones` | bounds on a patch's normals over a step: which patches cannot meet themselves |
 //! | `ccd` | continuous vertex–face and edge–edge tests |
 //! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |
 //! | `response` | proximity impulses, collision impulses, rigid impact zones |
@@ -18,14 +19,15 @@
 //! which ends every step without crossings.
 
 mod ccd;
+mod cones;
 mod crossings;
 mod geometry;
 mod impulse;
 mod response;
 mod topology;
 
-pub use crossings::count_crossings;
-pub use geometry::segment_crosses_triangle;
+pub use crossings::{count_crossings, count_crossings_culled};
+pub use geometry::{point_triangle, segment_crosses_triangle};
 pub use impulse::Hold;
 pub use response::{Motion, SelfReport};
 pub use topology::ClothMesh;
@@ -114,9 +116,22 @@ impl SelfCollision {
         report
     }
 
-    /// The exact number of cloth edges through cloth triangles at `x`
-    /// ([`count_crossings`]): zero whenever the response did its work.
+    /// The particles in self contact in the last step: those of every
+    /// pair that received an impulse (with a part in its closest points),
+    /// in index order.
+    pub fn contact_particles(&self) -> impl Iterator<Item = u32> + '_ {
+        self.scratch
+            .touched()
+            .iter()
+            .enumerate()
+            .filter(|&(_, &t)| t)
+            .map(|(k, _)| k as u32)
+    }
+
+    /// The number of cloth edges through cloth triangles at `x`
+    /// ([`count_crossings_culled`], which tests hold to the full count):
+    /// zero whenever the response did its work.
     pub fn crossings(&mut self, x: &[Vec3]) -> usize {
-        count_crossings(&mut self.mesh, x)
+        count_crossings_culled(&mut self.mesh, x)
     }
 }

@@ -90,6 +90,9 @@ pub struct Scratch {
     ee: Vec<(u32, u32)>,
     end: Vec<Vec3>,
     zone: Vec<u32>,
+    /// Per particle: in a pair that received an impulse in the last
+    /// resolution (a self contact, for viewers to show).
+    touched: Vec<bool>,
 }
 
 /// A pair's four particles.
@@ -113,6 +116,8 @@ impl Scratch {
         let mut report = SelfReport::default();
         self.separation.clear();
         self.separation.resize(u.len(), Vec3::zeros());
+        self.touched.clear();
+        self.touched.resize(u.len(), false);
         let inv_mass: Vec<Mobility> = m
             .mass
             .iter()
@@ -131,14 +136,17 @@ impl Scratch {
                 self.gather(mesh, m, u, eta);
             }
             fresh = false;
+            let mut touched = std::mem::take(&mut self.touched);
             let hits = self.collisions(mesh, m, u, |idx, cl, u| {
                 let w = idx.map(|k| inv_mass[k]);
                 let n = cl.gap.normalize();
                 let vn = relative(u, idx, &cl.c).dot(&n);
                 if vn < 0.0 {
                     apply(u, idx, &cl.c, &w, &(n * -vn));
+                    mark(&mut touched, idx, &cl.c);
                 }
             });
+            self.touched = touched;
             report.collisions += hits;
             if hits == 0 {
                 return report;
@@ -209,9 +217,17 @@ impl Scratch {
                 let w = idx.map(|k| inv_mass[k]);
                 apply(u, &idx, &cl.c, &w, &want);
                 apply(&mut self.separation, &idx, &cl.c, &w, &(n * (dvn - stop)));
+                mark(&mut self.touched, &idx, &cl.c);
                 report.contacts += 1;
             }
         }
+    }
+
+    /// Whether each particle was in a pair that received an impulse in
+    /// the last resolution (its part of the pair's closest points not
+    /// zero).
+    pub fn touched(&self) -> &[bool] {
+        &self.touched
     }
 
     /// The part of the last resolution's change of `u` that separates
@@ -224,8 +240,7 @@ impl Scratch {
     fn gather(&mut self, mesh: &mut ClothMesh, m: &Motion<'_>, u: &[Vec3], pad: Real) {
         self.end_positions(m, u);
         mesh.refit(m.x0, &self.end, pad);
-        mesh.vertex_face_pairs(&mut self.vf);
-        mesh.edge_edge_pairs(&mut self.ee);
+        mesh.feature_pairs(&mut self.vf, &mut self.ee);
     }
 
     fn end_positions(&mut self, m: &Motion<'_>, u: &[Vec3]) {
@@ -299,6 +314,15 @@ impl Scratch {
         }
         report.failsafe = true;
         u.fill(Vec3::zeros());
+    }
+}
+
+/// Marks the particles of a pair that take part in its closest points.
+fn mark(touched: &mut [bool], idx: &[usize; 4], c: &[Real; 4]) {
+    for (&k, &ck) in idx.iter().zip(c) {
+        if ck != 0.0 {
+            touched[k] = true;
+        }
     }
 }
 

@@ -1,17 +1,27 @@
 //! The cloth as a triangle mesh for self-collision: its triangles (two per
-//! grid quad, `Grid::triangles`), its edges once each, and the swept boxes
-//! and hierarchies over both that every query of a step shares.
+//! grid quad, `Grid::triangles`), its edges once each, and one hierarchy
+//! over the triangles that every query of a step shares.
 //!
-//! The hierarchies are built once over the rest shape (median splits, so
-//! their nodes are patches of the grid) and only refitted afterwards: a
+//! The hierarchy is built once over the rest shape (median splits, so its
+//! nodes are patches of the grid) and only refitted afterwards: a
 //! deforming cloth keeps its topology, and a patch of the grid stays a
 //! compact region of the cloth however it folds.
+//!
+//! Vertices and edges are not in trees of their own: each is owned by the
+//! first triangle that has it, and the triangles' boxes hold their
+//! features' boxes, so two features whose boxes overlap have owners whose
+//! boxes overlap (Curtis, Tamstorf & Manocha 2008, "Fast collision
+//! detection for deformable models using representative-triangles"). One
+//! self-traversal of the triangle tree then finds every vertex–triangle,
+//! edge–edge and edge–triangle pair, and skips whole patches whose normal
+//! cone shows they cannot meet themselves (`super::cones`).
 
+use super::cones::Cone;
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh};
 use crate::math::{Real, Vec3};
 
-/// Triangles, edges and their hierarchies.
+/// Triangles, edges, their owners and the hierarchy.
 #[derive(Debug, Clone)]
 pub struct ClothMesh {
     /// Particles along `u` (particle `(i, j)` is `i + j * nu`).
@@ -20,17 +30,20 @@ pub struct ClothMesh {
     pub triangles: Vec<[u32; 3]>,
     /// Vertex indices of each edge, smaller first, sorted.
     pub edges: Vec<[u32; 2]>,
-    vertex_bvh: Bvh,
+    /// The vertices and the edges each triangle owns.
+    owned: Vec<Owned>,
     tri_bvh: Bvh,
-    edge_bvh: Bvh,
     tri_boxes: Vec<Aabb>,
     edge_boxes: Vec<Aabb>,
+    /// Per hierarchy node: its patch cannot meet itself (normal cone).
+    flat: Vec<bool>,
+    cones: Vec<Cone>,
     /// Each vertex's swept box of the current query.
     pub vertex_boxes: Vec<Aabb>,
 }
 
 impl ClothMesh {
-    /// The mesh of `grid`, its hierarchies over the rest positions.
+    /// The mesh of `grid`, its hierarchy over the rest positions.
     pub fn new(grid: &Grid) -> Self {
         let triangles = grid.triangles();
         let mut edges: Vec<[u32; 2]> = triangles
@@ -41,6 +54,35 @@ impl ClothMesh {
         edges.sort_unstable();
         edges.dedup();
         let x = &grid.rest;
+        // Owners: the first triangle with the feature.
+        let mut vertex_owner = vec![u32::MAX; x.len()];
+        for (t, tri) in triangles.iter().enumerate() {
+            for &v in tri {
+                if vertex_owner[v as usize] == u32::MAX {
+                    vertex_owner[v as usize] = t as u32;
+                }
+            }
+        }
+        let mut edge_owner = vec![u32::MAX; edges.len()];
+        for (t, tri) in triangles.iter().enumerate() {
+            for [a, b] in [[tri[0], tri[1]], [tri[1], tri[2]], [tri[2], tri[0]]] {
+                let e = edges
+                    .binary_search(&[a.min(b), a.max(b)])
+                    .expect("every triangle edge is listed");
+                if edge_owner[e] == u32::MAX {
+                    edge_owner[e] = t as u32;
+                }
+            }
+        }
+        let mut owned = vec![Owned::default(); triangles.len()];
+        for (v, &t) in vertex_owner.iter().enumerate() {
+            if let Some(o) = owned.get_mut(t as usize) {
+                o.vertices.push(v as u32);
+            }
+        }
+        for (e, &t) in edge_owner.iter().enumerate() {
+            owned[t as usize].edges.push(e as u32);
+        }
         let tri_boxes: Vec<Aabb> = triangles
             .iter()
             .map(|t| Aabb::of_points(t.iter().map(|&k| &x[k as usize])))
@@ -52,21 +94,45 @@ impl ClothMesh {
         let vertex_boxes: Vec<Aabb> = x.iter().map(|p| Aabb::of_segment(p, p)).collect();
         Self {
             nu: grid.nu,
-            vertex_bvh: Bvh::build(&vertex_boxes),
             tri_bvh: Bvh::build(&tri_boxes),
-            edge_bvh: Bvh::build(&edge_boxes),
             triangles,
             edges,
+            owned,
             tri_boxes,
             edge_boxes,
+            flat: Vec::new(),
+            cones: Vec::new(),
             vertex_boxes,
         }
     }
 
     /// Refits every box to the motion from `x0` to `x1`, grown by `pad` on
-    /// every side: a feature's box then holds its whole path and everything
-    /// within `pad` of it.
+    /// every side (a feature's box then holds its whole path and
+    /// everything within `pad` of it), and bounds every patch's normals
+    /// over that motion, for [`ClothMesh::feature_pairs`].
     pub fn refit(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
+        self.refit_boxes(x0, x1, pad);
+        let triangles = &self.triangles;
+        self.tri_bvh.fold_up(
+            &mut self.cones,
+            |leaf| {
+                leaf.iter()
+                    .map(|&t| {
+                        let k = triangles[t as usize].map(|k| k as usize);
+                        Cone::of_triangle(k.map(|k| &x0[k]), k.map(|k| &x1[k]))
+                    })
+                    .reduce(|a, b| a.merge(&b))
+                    .unwrap_or_default()
+            },
+            Cone::merge,
+        );
+        self.flat.clear();
+        self.flat.extend(self.cones.iter().map(Cone::is_flat));
+    }
+
+    /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
+    /// cull nothing.
+    pub fn refit_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
         for (b, (a, c)) in self.vertex_boxes.iter_mut().zip(x0.iter().zip(x1)) {
             *b = Aabb::of_segment(a, c).grown(0.5 * pad);
         }
@@ -79,9 +145,16 @@ impl ClothMesh {
         for (b, e) in self.edge_boxes.iter_mut().zip(&self.edges) {
             *b = vb[e[0] as usize].union(&vb[e[1] as usize]);
         }
-        self.vertex_bvh.refit(&self.vertex_boxes);
         self.tri_bvh.refit(&self.tri_boxes);
-        self.edge_bvh.refit(&self.edge_boxes);
+    }
+
+    /// Every pair of distinct triangles whose boxes overlap, in the
+    /// hierarchy's fixed order; with `cull`, except pairs inside a patch
+    /// that the last [`ClothMesh::refit`] found cannot meet itself.
+    fn triangle_pairs(&self, cull: bool, f: impl FnMut(usize, usize)) {
+        let flat = &self.flat;
+        self.tri_bvh
+            .self_pairs_skipping(|node| cull && flat.get(node).copied().unwrap_or(false), f);
     }
 
     /// Whether a pair's two features (a vertex then a triangle, or two
@@ -105,24 +178,38 @@ impl ClothMesh {
     }
 
     /// Every vertex–triangle pair whose boxes overlap, the vertex not a
-    /// corner of the triangle, in the hierarchies' fixed order.
-    pub fn vertex_face_pairs(&self, out: &mut Vec<(u32, u32)>) {
-        out.clear();
-        self.vertex_bvh.pairs(&self.tri_bvh, |v, t| {
-            if !self.triangles[t].contains(&(v as u32)) {
-                out.push((v as u32, t as u32));
+    /// corner of the triangle, into `vf`, and every pair of edges with
+    /// overlapping boxes and no shared vertex, once each (first index
+    /// smaller), into `ee`: both in the hierarchy's fixed order, less the
+    /// pairs inside patches that cannot meet themselves.
+    pub fn feature_pairs(&self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) {
+        vf.clear();
+        ee.clear();
+        self.triangle_pairs(true, |s, t| {
+            let (os, ot) = (&self.owned[s], &self.owned[t]);
+            for (mine, tri) in [(os, t), (ot, s)] {
+                let corners = &self.triangles[tri];
+                for &v in mine.vertices.as_slice() {
+                    if !corners.contains(&v)
+                        && self.vertex_boxes[v as usize].overlaps(&self.tri_boxes[tri])
+                    {
+                        vf.push((v, tri as u32));
+                    }
+                }
             }
-        });
-    }
-
-    /// Every pair of edges with overlapping boxes and no shared vertex,
-    /// each once (first index smaller), in the hierarchy's fixed order.
-    pub fn edge_edge_pairs(&self, out: &mut Vec<(u32, u32)>) {
-        out.clear();
-        self.edge_bvh.self_pairs(|e, f| {
-            let ([a0, a1], [b0, b1]) = (self.edges[e], self.edges[f]);
-            if a0 != b0 && a0 != b1 && a1 != b0 && a1 != b1 {
-                out.push((e.min(f) as u32, e.max(f) as u32));
+            for &e in os.edges.as_slice() {
+                let [a0, a1] = self.edges[e as usize];
+                for &f in ot.edges.as_slice() {
+                    let [b0, b1] = self.edges[f as usize];
+                    if a0 != b0
+                        && a0 != b1
+                        && a1 != b0
+                        && a1 != b1
+                        && self.edge_boxes[e as usize].overlaps(&self.edge_boxes[f as usize])
+                    {
+                        ee.push((e.min(f), e.max(f)));
+                    }
+                }
             }
         });
     }
@@ -138,14 +225,49 @@ impl ClothMesh {
     }
 
     /// Every edge–triangle pair with overlapping boxes that share no
-    /// vertex, in edge then triangle order (for the crossing count).
-    pub fn edge_face_pairs(&self, out: &mut Vec<(u32, u32)>) {
+    /// vertex, in the hierarchy's fixed order, for the crossing count;
+    /// with `cull`, less the pairs inside patches that the last
+    /// [`ClothMesh::refit`] found cannot meet themselves.
+    pub fn edge_face_pairs(&self, cull: bool, out: &mut Vec<(u32, u32)>) {
         out.clear();
-        self.edge_bvh.pairs(&self.tri_bvh, |e, t| {
-            let ([a0, a1], tri) = (self.edges[e], &self.triangles[t]);
-            if !tri.contains(&a0) && !tri.contains(&a1) {
-                out.push((e as u32, t as u32));
+        self.triangle_pairs(cull, |s, t| {
+            for (owner, tri) in [(s, t), (t, s)] {
+                let corners = &self.triangles[tri];
+                for &e in self.owned[owner].edges.as_slice() {
+                    let [a0, a1] = self.edges[e as usize];
+                    if !corners.contains(&a0)
+                        && !corners.contains(&a1)
+                        && self.edge_boxes[e as usize].overlaps(&self.tri_boxes[tri])
+                    {
+                        out.push((e, tri as u32));
+                    }
+                }
             }
         });
+    }
+}
+
+/// The features a triangle owns: at most its three vertices and edges.
+#[derive(Debug, Clone, Copy, Default)]
+struct Owned {
+    vertices: Few,
+    edges: Few,
+}
+
+/// Up to three indices.
+#[derive(Debug, Clone, Copy, Default)]
+struct Few {
+    items: [u32; 3],
+    len: u8,
+}
+
+impl Few {
+    fn push(&mut self, k: u32) {
+        self.items[self.len as usize] = k;
+        self.len += 1;
+    }
+
+    fn as_slice(&self) -> &[u32] {
+        &self.items[..self.len as usize]
     }
 }

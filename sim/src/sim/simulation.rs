@@ -63,6 +63,20 @@ impl Simulation {
         self.run.contacts()
     }
 
+    /// The particles in self contact in the last step (empty without
+    /// self-collision), in index order.
+    pub fn self_contact_particles(&self) -> Vec<u32> {
+        self.ws
+            .self_collision
+            .as_ref()
+            .map_or_else(Vec::new, |sc| sc.contact_particles().collect())
+    }
+
+    /// Whether the cloth collides with itself in this simulation.
+    pub fn self_collision(&self) -> bool {
+        self.ws.self_collision.is_some()
+    }
+
     /// The cloth now.
     pub fn state(&self) -> &ClothState {
         &self.run.state

@@ -95,7 +95,7 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
             for &threads in &args.threads {
                 let row = measure(&base, n, preconditioner, threads, args.duration)?;
                 eprintln!(
-                    "{n:>4}x{n:<4} {:<24} {:.4} s/step, {:.2} s per simulated s, {:.1} CG its/step, solve {:.0}%, assemble {:.0}%, collision {:.1}%",
+                    "{n:>4}x{n:<4} {:<24} {:.4} s/step, {:.2} s per simulated s, {:.1} CG its/step, solve {:.0}%, assemble {:.0}%, collision {:.1}%, self-collision {:.1}%",
                     row.series(),
                     row.seconds_per_step(),
                     row.wall_seconds / row.sim_seconds.max(1e-12),
@@ -103,6 +103,7 @@ pub fn run(args: &ScaleArgs) -> anyhow::Result<ExitCode> {
                     100.0 * row.share(&[Stage::Precondition, Stage::Solve]),
                     100.0 * row.share(&[Stage::Assemble]),
                     100.0 * row.share(&[Stage::CollisionPrepare, Stage::CollisionResolve]),
+                    100.0 * row.share(&[Stage::SelfCollision]),
                 );
                 rows.push(row);
             }
@@ -230,6 +231,7 @@ struct CsvRow {
     precondition_share: f64,
     solve_share: f64,
     collision_share: f64,
+    self_collision_share: f64,
     peak_rss_mib: Option<f64>,
 }
 
@@ -250,6 +252,7 @@ impl From<&Row> for CsvRow {
             precondition_share: r.share(&[Stage::Precondition]),
             solve_share: r.share(&[Stage::Solve]),
             collision_share: r.share(&[Stage::CollisionPrepare, Stage::CollisionResolve]),
+            self_collision_share: r.share(&[Stage::SelfCollision]),
             peak_rss_mib: r.peak_rss_mib,
         }
     }

@@ -195,8 +195,9 @@ fn run_summary(rec: &StatsRecorder, wall_seconds: f64) -> String {
 }
 
 /// A frame's statistics as stored and streamed ([`FrameReport`]): the
-/// core's [`FrameStats`], and with obstacles their poses at the frame and
-/// the particles in contact.
+/// core's [`FrameStats`], with obstacles their poses at the frame and the
+/// particles in contact, and with self-collision the particles in self
+/// contact.
 fn frame_report(sim: &Simulation, stats: &FrameStats) -> String {
     let solver = match serde_json::to_value(stats) {
         Ok(Value::Object(m)) => m,
@@ -206,6 +207,7 @@ fn frame_report(sim: &Simulation, stats: &FrameStats) -> String {
         solver,
         obstacles: None,
         contact_particles: None,
+        self_contact_particles: sim.self_collision().then(|| sim.self_contact_particles()),
     };
     // A scene with obstacles reports their poses and the particles they
     // hold; one without has neither field.
