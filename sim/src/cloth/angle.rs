@@ -99,7 +99,26 @@ pub struct ArmDerivatives {
     /// `∂E/∂e1`, `∂E/∂e2`.
     pub grad: [Vec3; 2],
     /// `∂²E/∂e_i∂e_j` (the exact one, or the solver's PSD one).
-    pub hess: [[Mat3; 2]; 2],
+    pub hess: ArmHessian,
+}
+
+/// An arm Hessian: four 3x3 blocks, or a Gauss–Newton term on one scalar,
+/// `s j jᵀ` with `j = (j1, j2)` its gradient along the arms, which a sink
+/// can assemble without any 3x3 product.
+// Returned by value and taken apart at once, per element: boxing the full
+// variant would allocate per element to save a copy of a few words.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+pub enum ArmHessian {
+    /// `[[H11, H12], [H21, H22]]`.
+    Full([[Mat3; 2]; 2]),
+    /// `s j jᵀ`.
+    Rank1 {
+        /// The scale `s`.
+        s: Real,
+        /// The arm gradient `(j1, j2)`.
+        j: [Vec3; 2],
+    },
 }
 
 /// An energy of the angle between two arms.
@@ -209,6 +228,9 @@ impl<L: AngleLaw> Force for AngleForce<L> {
             return; // a collapsed arm has no angle; its springs resist it
         };
         let d = L::eval(&g, el.c1, el.c0, mode);
-        sink.add_arms(e, el.idx, d.grad, &d.hess);
+        match d.hess {
+            ArmHessian::Full(h) => sink.add_arms(e, el.idx, d.grad, &h),
+            ArmHessian::Rank1 { s, j } => sink.add_arms_rank1(e, el.idx, d.grad, s, j),
+        }
     }
 }

@@ -27,7 +27,7 @@
 //! state, and, unlike Gauss–Newton on the scalar `φ`, keeps stiffness in
 //! both transverse directions of a straight line.
 
-use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives};
+use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives, ArmHessian};
 use super::angle::{energy_of_square, exact_hessian_through_f, gradient_through_f};
 use super::grid::Grid;
 use crate::math::{Mat3, Real, outer};
@@ -106,10 +106,10 @@ impl AngleLaw for Bend {
             (2.0 * phi / s, 2.0 * (s + phi * g.f) / (s * s * s))
         };
         let e_f = e_q * q_f;
-        let hess = match mode {
+        let hess = ArmHessian::Full(match mode {
             JacobianMode::Exact => exact_hessian_through_f(g, e_f, e_qq * q_f * q_f + e_q * q_ff),
             JacobianMode::Solver => gauss_newton(g, e_q),
-        };
+        });
         ArmDerivatives {
             grad: gradient_through_f(g, e_f),
             hess,

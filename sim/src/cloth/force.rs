@@ -1,6 +1,6 @@
 //! The force interface shared by every energy and dissipative term.
 
-use crate::math::{Mat3, Real, Vec3};
+use crate::math::{Mat3, Real, Vec3, outer};
 use crate::spec::JacobianMode;
 
 /// Receives one element's contribution at a time.
@@ -47,6 +47,25 @@ pub trait Sink {
     fn add_arms(&mut self, element: usize, idx: [usize; 3], g: [Vec3; 2], h: &[[Mat3; 2]; 2]) {
         let (f, dfdx) = arm_blocks(g, h);
         self.add(element, &idx, &f, Some(&dfdx), None);
+    }
+
+    /// [`Sink::add_arms`] with the rank-one arm Hessian `s j jᵀ`
+    /// (`j = (j1, j2)`). A sink may override it to use the structure.
+    #[inline]
+    fn add_arms_rank1(
+        &mut self,
+        element: usize,
+        idx: [usize; 3],
+        g: [Vec3; 2],
+        s: Real,
+        j: [Vec3; 2],
+    ) {
+        let (a, b) = (j[0] * s, j[1] * s);
+        let h = [
+            [outer(&a, &j[0]), outer(&a, &j[1])],
+            [outer(&b, &j[0]), outer(&b, &j[1])],
+        ];
+        self.add_arms(element, idx, g, &h);
     }
 }
 

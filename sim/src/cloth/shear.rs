@@ -12,10 +12,10 @@
 //! `2 E'(q) ∇γ ∇γᵀ` with `∇γ = ∇f / cos γ`; exact at the square rest state,
 //! where `γ = 0`.
 
-use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives};
+use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives, ArmHessian};
 use super::angle::{energy_of_square, exact_hessian_through_f, gradient_through_f};
 use super::grid::Grid;
-use crate::math::{Real, outer};
+use crate::math::Real;
 use crate::spec::JacobianMode;
 
 /// The shear law.
@@ -70,16 +70,17 @@ impl AngleLaw for Shear {
         let hess = match mode {
             JacobianMode::Exact => {
                 let q_ff = 2.0 / (cos * cos) + 2.0 * gamma * g.f / (cos * cos * cos);
-                exact_hessian_through_f(g, e_q * q_f, e_qq * q_f * q_f + e_q * q_ff)
+                ArmHessian::Full(exact_hessian_through_f(
+                    g,
+                    e_q * q_f,
+                    e_qq * q_f * q_f + e_q * q_ff,
+                ))
             }
-            JacobianMode::Solver => {
-                let s = 2.0 * e_q / (cos * cos);
-                let (a, b) = (g.g1 * s, g.g2 * s);
-                [
-                    [outer(&a, &g.g1), outer(&a, &g.g2)],
-                    [outer(&b, &g.g1), outer(&b, &g.g2)],
-                ]
-            }
+            // `2 E'(q) ∇γ ∇γᵀ` with `∇γ = ∇f / cos γ`: rank one.
+            JacobianMode::Solver => ArmHessian::Rank1 {
+                s: 2.0 * e_q / (cos * cos),
+                j: [g.g1, g.g2],
+            },
         };
         ArmDerivatives {
             grad: gradient_through_f(g, e_q * q_f),

@@ -93,6 +93,8 @@ pub struct Scratch {
     /// Per particle: in a pair that received an impulse in the last
     /// resolution (a self contact, for viewers to show).
     touched: Vec<bool>,
+    /// How each particle yields to an impulse, this resolution.
+    mobility: Vec<Mobility>,
 }
 
 /// A pair's four particles.
@@ -118,13 +120,32 @@ impl Scratch {
         self.separation.resize(u.len(), Vec3::zeros());
         self.touched.clear();
         self.touched.resize(u.len(), false);
-        let inv_mass: Vec<Mobility> = m
-            .mass
-            .iter()
-            .zip(m.held)
-            .map(|(&mass, &held)| Mobility::of(held, mass))
-            .collect();
-        self.proximity(mesh, m, &inv_mass, u, &mut report);
+        // Taken out of the scratch for the passes that borrow it beside
+        // `self`, and put back: no allocation per step.
+        let mut mobility = std::mem::take(&mut self.mobility);
+        mobility.clear();
+        mobility.extend(
+            m.mass
+                .iter()
+                .zip(m.held)
+                .map(|(&mass, &held)| Mobility::of(held, mass)),
+        );
+        self.passes(mesh, m, &mobility, u, &mut report);
+        self.mobility = mobility;
+        report
+    }
+
+    /// The three passes of [`Scratch::resolve`], with each particle's
+    /// mobility.
+    fn passes(
+        &mut self,
+        mesh: &mut ClothMesh,
+        m: &Motion<'_>,
+        inv_mass: &[Mobility],
+        u: &mut [Vec3],
+        report: &mut SelfReport,
+    ) {
+        self.proximity(mesh, m, inv_mass, u, report);
         // The proximity pass's pairs were gathered with the thickness as
         // pad; while every particle's new path stays inside its box less
         // the collision pad, they are every pair the collision test needs.
@@ -149,11 +170,10 @@ impl Scratch {
             self.touched = touched;
             report.collisions += hits;
             if hits == 0 {
-                return report;
+                return;
             }
         }
-        self.zones(mesh, m, u, &mut report);
-        report
+        self.zones(mesh, m, u, report);
     }
 
     /// The proximity pass (Bridson et al. §7.2): one Gauss–Seidel sweep

@@ -398,6 +398,42 @@ impl Sink for AssemblySink<'_> {
             self.b[p - self.rows.start] += rhs[a] * self.h;
         }
     }
+
+    /// PERF: a rank-one arm Hessian `s j jᵀ` (shear's Gauss–Newton term).
+    /// With the particle gradients `J = (j1, -(j1 + j2), j2)` the blocks
+    /// `h'² s J_p J_qᵀ` are nine outer products, and `K w` along the arms
+    /// is `s (j · d) j`: no 3x3 product at all. The same `A` and `b` as
+    /// [`Sink::add_arms`] to round-off.
+    #[inline]
+    fn add_arms_rank1(
+        &mut self,
+        element: usize,
+        idx: [usize; 3],
+        g: [Vec3; 2],
+        s: Real,
+        j: [Vec3; 2],
+    ) {
+        let (d1, d2) = (
+            self.w[idx[0]] - self.w[idx[1]],
+            self.w[idx[2]] - self.w[idx[1]],
+        );
+        let r = s * (j[0].dot(&d1) + j[1].dot(&d2));
+        let (g1, g2) = (g[0] + j[0] * r, g[1] + j[1] * r);
+        let rhs = [-g1, g1 + g2, -g2];
+        let jp = [j[0], -(j[0] + j[1]), j[1]];
+        let scale = s * self.h * self.h;
+        let slots = &self.slots[element * 9..element * 9 + 9];
+        for (a, &p) in idx.iter().enumerate() {
+            if !self.rows.contains(&p) {
+                continue;
+            }
+            let left = jp[a] * scale;
+            for (q, right) in jp.iter().enumerate() {
+                self.values[slots[a * 3 + q] as usize - self.base] += left * right.transpose();
+            }
+            self.b[p - self.rows.start] += rhs[a] * self.h;
+        }
+    }
 }
 
 #[cfg(test)]
