@@ -86,9 +86,10 @@ impl Cone {
         }
     }
 
-    /// A cone holding the directions of `vectors` (about their mean
-    /// direction); [`Cone::WHOLE`] if one of them is (numerically) zero,
-    /// since it has no direction to bound, or if they spread too far.
+    /// A cone holding the directions of `vectors` (at most three: a
+    /// triangle's normal coefficients), about their mean direction;
+    /// [`Cone::WHOLE`] if one of them is (numerically) zero, since it has
+    /// no direction to bound, or if they spread too far.
     pub fn holding(vectors: &[Vec3]) -> Self {
         let scale = vectors.iter().map(|v| v.norm()).fold(0.0, Real::max);
         let mut units = [Vec3::zeros(); 3];
