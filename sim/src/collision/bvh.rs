@@ -351,7 +351,6 @@ mod tests {
         let boxes = random_boxes(&mut rng, 300);
         let bvh = Bvh::build(&boxes);
         let mut under: Vec<Vec<usize>> = Vec::new();
-        bvh.fold_up(&mut Vec::<usize>::new(), |_| 0, |_, _| 0);
         let mut counts = Vec::new();
         bvh.fold_up(&mut counts, <[u32]>::len, |a, b| a + b);
         assert_eq!(counts[0], 300);
