@@ -56,7 +56,7 @@ fn run(json: &str) -> Outcome {
             (a, b) => a.or(b),
         };
         out.self_work += f.self_contacts + f.self_collisions;
-        let touching = sim.self_contact_particles();
+        let touching = sim.self_contact_particles().expect("self-collision is on");
         if !touching.is_empty() {
             out.contact_frames += 1;
             assert_touching(&grid, &mesh, x, &touching, scene.cloth.self_thickness);

@@ -35,8 +35,8 @@ pub struct ClothMesh {
     tri_bvh: Bvh,
     tri_boxes: Vec<Aabb>,
     edge_boxes: Vec<Aabb>,
-    /// Per hierarchy node: its patch cannot meet itself (normal cone).
-    flat: Vec<bool>,
+    /// Per hierarchy node, the cone of its patch's normals over the last
+    /// refit's motion: a flat one cannot meet itself.
     cones: Vec<Cone>,
     /// Each vertex's swept box of the current query.
     pub vertex_boxes: Vec<Aabb>,
@@ -46,31 +46,26 @@ impl ClothMesh {
     /// The mesh of `grid`, its hierarchy over the rest positions.
     pub fn new(grid: &Grid) -> Self {
         let triangles = grid.triangles();
-        let mut edges: Vec<[u32; 2]> = triangles
+        // Every edge with the triangles that have it, in edge then triangle
+        // order: the first of each edge is its owner.
+        let mut with_triangle: Vec<([u32; 2], u32)> = triangles
             .iter()
-            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-            .map(|[a, b]| [a.min(b), a.max(b)])
+            .enumerate()
+            .flat_map(|(t, tri)| {
+                [[tri[0], tri[1]], [tri[1], tri[2]], [tri[2], tri[0]]]
+                    .map(|[a, b]| ([a.min(b), a.max(b)], t as u32))
+            })
             .collect();
-        edges.sort_unstable();
-        edges.dedup();
+        with_triangle.sort_unstable();
+        with_triangle.dedup_by_key(|(e, _)| *e);
+        let (edges, edge_owner): (Vec<[u32; 2]>, Vec<u32>) = with_triangle.into_iter().unzip();
         let x = &grid.rest;
-        // Owners: the first triangle with the feature.
+        // A vertex's owner: the first triangle with it.
         let mut vertex_owner = vec![u32::MAX; x.len()];
         for (t, tri) in triangles.iter().enumerate() {
             for &v in tri {
                 if vertex_owner[v as usize] == u32::MAX {
                     vertex_owner[v as usize] = t as u32;
-                }
-            }
-        }
-        let mut edge_owner = vec![u32::MAX; edges.len()];
-        for (t, tri) in triangles.iter().enumerate() {
-            for [a, b] in [[tri[0], tri[1]], [tri[1], tri[2]], [tri[2], tri[0]]] {
-                let e = edges
-                    .binary_search(&[a.min(b), a.max(b)])
-                    .expect("every triangle edge is listed");
-                if edge_owner[e] == u32::MAX {
-                    edge_owner[e] = t as u32;
                 }
             }
         }
@@ -100,7 +95,6 @@ impl ClothMesh {
             owned,
             tri_boxes,
             edge_boxes,
-            flat: Vec::new(),
             cones: Vec::new(),
             vertex_boxes,
         }
@@ -126,8 +120,6 @@ impl ClothMesh {
             },
             Cone::merge,
         );
-        self.flat.clear();
-        self.flat.extend(self.cones.iter().map(Cone::is_flat));
     }
 
     /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
@@ -152,9 +144,9 @@ impl ClothMesh {
     /// hierarchy's fixed order; with `cull`, except pairs inside a patch
     /// that the last [`ClothMesh::refit`] found cannot meet itself.
     fn triangle_pairs(&self, cull: bool, f: impl FnMut(usize, usize)) {
-        let flat = &self.flat;
+        let cones = &self.cones;
         self.tri_bvh
-            .self_pairs_skipping(|node| cull && flat.get(node).copied().unwrap_or(false), f);
+            .self_pairs_skipping(|node| cull && cones.get(node).is_some_and(Cone::is_flat), f);
     }
 
     /// Whether a pair's two features (a vertex then a triangle, or two

@@ -63,18 +63,13 @@ impl Simulation {
         self.run.contacts()
     }
 
-    /// The particles in self contact in the last step (empty without
-    /// self-collision), in index order.
-    pub fn self_contact_particles(&self) -> Vec<u32> {
+    /// The particles in self contact in the last step, in index order;
+    /// `None` when the cloth does not collide with itself.
+    pub fn self_contact_particles(&self) -> Option<Vec<u32>> {
         self.ws
             .self_collision
             .as_ref()
-            .map_or_else(Vec::new, |sc| sc.contact_particles().collect())
-    }
-
-    /// Whether the cloth collides with itself in this simulation.
-    pub fn self_collision(&self) -> bool {
-        self.ws.self_collision.is_some()
+            .map(|sc| sc.contact_particles().collect())
     }
 
     /// The cloth now.

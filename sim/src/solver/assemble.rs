@@ -290,6 +290,16 @@ struct AssemblySink<'a> {
     slots: &'a [u32],
 }
 
+impl AssemblySink<'_> {
+    /// The displacements `K` multiplies along a three-particle element's
+    /// arms: `(w_a - w_b, w_c - w_b)`.
+    #[inline]
+    fn arm_displacements(&self, idx: [usize; 3]) -> [Vec3; 2] {
+        let w = |k: usize| self.w[idx[k]];
+        [w(0) - w(1), w(2) - w(1)]
+    }
+}
+
 impl Sink for AssemblySink<'_> {
     #[inline]
     fn add<const N: usize>(
@@ -373,10 +383,7 @@ impl Sink for AssemblySink<'_> {
     #[inline]
     fn add_arms(&mut self, element: usize, idx: [usize; 3], g: [Vec3; 2], h: &[[Mat3; 2]; 2]) {
         let [[h11, h12], [h21, h22]] = *h;
-        let (d1, d2) = (
-            self.w[idx[0]] - self.w[idx[1]],
-            self.w[idx[2]] - self.w[idx[1]],
-        );
+        let [d1, d2] = self.arm_displacements(idx);
         // ∂²E/∂e∂e times the arms' displacements.
         let (r1, r2) = (h11 * d1 + h12 * d2, h21 * d1 + h22 * d2);
         let s = self.h * self.h;
@@ -413,10 +420,7 @@ impl Sink for AssemblySink<'_> {
         s: Real,
         j: [Vec3; 2],
     ) {
-        let (d1, d2) = (
-            self.w[idx[0]] - self.w[idx[1]],
-            self.w[idx[2]] - self.w[idx[1]],
-        );
+        let [d1, d2] = self.arm_displacements(idx);
         let r = s * (j[0].dot(&d1) + j[1].dot(&d2));
         let (g1, g2) = (g[0] + j[0] * r, g[1] + j[1] * r);
         let rhs = [-g1, g1 + g2, -g2];

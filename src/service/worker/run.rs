@@ -207,7 +207,7 @@ fn frame_report(sim: &Simulation, stats: &FrameStats) -> String {
         solver,
         obstacles: None,
         contact_particles: None,
-        self_contact_particles: sim.self_collision().then(|| sim.self_contact_particles()),
+        self_contact_particles: sim.self_contact_particles(),
     };
     // A scene with obstacles reports their poses and the particles they
     // hold; one without has neither field.
