@@ -253,7 +253,7 @@ fn bench_stress_writes_csv_and_replayable_specs() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("stress.csv")).expect("csv");
     assert!(csv.starts_with(
-        "case,dt,finite,max_stretch,min_signed_distance,self_crossings,cg_iterations_max,unconverged_solves,wall_seconds,pass"
+        "case,dt,finite,max_stretch,min_signed_distance,self_crossings,obstacle_crossings,cg_iterations_max,unconverged_solves,wall_seconds,pass"
     ));
     assert_eq!(
         column(&csv, "case"),

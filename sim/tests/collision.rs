@@ -1,7 +1,7 @@
 //! Collision scenarios (method.md §3, §4): every example scene with
 //! obstacles stays outside the true surfaces and within the stretch bound,
 //! and the physical facts of contact hold — resting without a gap, sharp
-//! edges covered by the offset, Coulomb friction on a slope against the
+//! edges tested against cloth edges and triangles, Coulomb friction on a slope against the
 //! closed form, friction carrying cloth round a turning sphere, no
 //! tunnelling through a fast obstacle.
 
@@ -98,37 +98,75 @@ fn sphere_drape_100_stays_outside() {
     run_checked(&example_scene("sphere-drape-100.json"), Real::INFINITY);
 }
 
+/// Issue 15, item 6: the table's edges and corners are tested against
+/// the cloth's edges and triangles, so the offset shrinks to its margin
+/// (it was 0.41 spacings, 11.1 mm) and the cloth rests on the table
+/// without a visible gap, while no part of the cloth between particles
+/// cuts into the table.
 #[test]
-fn table_drape_edges_do_not_cut_into_the_table() {
+fn table_drape_rests_on_the_table_and_nothing_cuts_into_it() {
     let scene = example_scene("table-drape.json");
-    let (sim, frames) = run_checked(&scene, Real::INFINITY);
+    let (sim, frames, stats) = run_checked_with_stats(&scene, Real::INFINITY);
     let (nu, nv) = (sim.grid().nu, sim.grid().nv);
     let (center, half) = (Vec3::new(0.0, 0.0, 0.375), Vec3::new(0.5, 0.5, 0.375));
     let sdf = |p: &Vec3| {
         let q = (p - center).abs() - half;
         q.sup(&Vec3::zeros()).norm() + q.max().min(0.0)
     };
+    // Every cloth edge, the quads' diagonals included, sampled at 16
+    // points: none inside the true box, at any frame. (The sampling can
+    // miss a cut shallower than an edge's sixteenth times its slope;
+    // the exact count below does not.)
     let mut worst = Real::INFINITY;
     for x in &frames {
         for j in 0..nv {
             for i in 0..nu {
                 let a = x[i + j * nu];
+                let mut ends = Vec::new();
                 if i + 1 < nu {
-                    worst = worst.min(sdf(&((a + x[i + 1 + j * nu]) / 2.0)));
+                    ends.push(x[i + 1 + j * nu]);
                 }
                 if j + 1 < nv {
-                    worst = worst.min(sdf(&((a + x[i + (j + 1) * nu]) / 2.0)));
+                    ends.push(x[i + (j + 1) * nu]);
+                }
+                if i + 1 < nu && j + 1 < nv {
+                    ends.push(x[i + 1 + (j + 1) * nu]);
+                }
+                for b in ends {
+                    for k in 1..16 {
+                        let t = k as Real / 16.0;
+                        worst = worst.min(sdf(&(a * (1.0 - t) + b * t)));
+                    }
                 }
             }
         }
     }
+    assert!(worst > 0.0, "a cloth edge is {:.3} mm inside", -worst * 1e3);
+    for s in &stats {
+        assert_eq!(
+            s.obstacle_crossings, 0,
+            "frame {}: table edges through the cloth",
+            s.frame
+        );
+    }
+    // Resting on the top: the particles over the table's middle lie on it
+    // at the offset (1.36 mm at 60²), under the issue's 3 mm, except
+    // where the cloth wrinkles (at most 3.3 mm at the last frame).
+    let last = frames.last().expect("frames");
+    let mut top: Vec<Real> = last
+        .iter()
+        .filter(|p| p.x.abs() < 0.45 && p.y.abs() < 0.45)
+        .map(|p| p.z - 0.75)
+        .collect();
+    assert!(top.len() > 1000);
+    top.sort_by(Real::total_cmp);
+    let (lo, median, p90) = (top[0], top[top.len() / 2], top[top.len() * 9 / 10]);
     assert!(
-        worst > -2e-3,
-        "an edge midpoint is {:.2} mm inside",
-        -worst * 1e3
+        lo > 0.0 && median <= 3e-3 && p90 <= 3e-3,
+        "gap above the table: least {lo}, median {median}, 90th percentile {p90}"
     );
     // And the cloth hangs down the sides.
-    assert!(common::lowest_z(frames.last().expect("frames")) < 0.6);
+    assert!(common::lowest_z(last) < 0.6);
 }
 
 #[test]

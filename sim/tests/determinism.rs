@@ -4,7 +4,9 @@
 //!
 //! The cloth is 80 x 80 so every parallel path runs (assembly bands,
 //! chunked products and sums from 4,096 particles, the packs of a line
-//! colour from 512 pack nodes, Galerkin rows).
+//! colour from 512 pack nodes, Galerkin rows); it lands on a sphere and on
+//! a box, whose edges and corners the sharp-feature stage couples to the
+//! cloth.
 
 mod common;
 
@@ -16,7 +18,8 @@ fn drape(preconditioner: &str) -> Scene {
     common::scene_from_json(&format!(
         r#"{{"cloth": {{"grid": [80, 80], "size": [1, 1], "origin": [-0.5, -0.5, 0.3]}},
             "material": "cotton",
-            "obstacles": [{{"sphere": {{"center": [0, 0, 0], "radius": 0.25}}, "friction": 0.4}}],
+            "obstacles": [{{"sphere": {{"center": [0, 0, 0], "radius": 0.25}}, "friction": 0.4}},
+                          {{"box": {{"center": [0.35, 0, 0.1], "size": [0.2, 0.6, 0.2]}}}}],
             "duration": 0.2, "fps": 60,
             "solver": {{"dt": 0.004166667, "preconditioner": "{preconditioner}"}}}}"#
     ))
@@ -53,6 +56,13 @@ fn frames_are_bit_for_bit_the_same_on_one_two_and_three_threads() {
         assert!(
             one.last().expect("frames").iter().any(|p| p.z < 0.25),
             "{pc}: the cloth reached the sphere, so contacts were in play"
+        );
+        assert!(
+            one.last()
+                .expect("frames")
+                .iter()
+                .any(|p| p.x > 0.25 && p.x < 0.45 && p.z < 0.21),
+            "{pc}: the cloth reached the box, so its features were in play"
         );
         for threads in [2, 3] {
             let other = in_pool(threads, || frames(&scene, None));

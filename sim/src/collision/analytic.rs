@@ -69,10 +69,10 @@ impl Primitive {
     pub fn curvature(&self) -> Curvature {
         match self {
             Self::Sphere { radius, .. } => Curvature::Smooth(*radius),
-            Self::Plane { .. } => Curvature::Flat,
-            Self::Box { .. } | Self::Cylinder { .. } => {
-                Curvature::Sharp(std::f64::consts::FRAC_PI_2)
-            }
+            // A box's edges and corners are tested directly
+            // (`super::Features`): its faces are flat.
+            Self::Plane { .. } | Self::Box { .. } => Curvature::Flat,
+            Self::Cylinder { .. } => Curvature::Sharp(std::f64::consts::FRAC_PI_2),
         }
     }
 

@@ -3,6 +3,7 @@
 
 use super::aabb::Aabb;
 use super::analytic::{Analytic, Primitive};
+use super::features::Features;
 use super::meshsurface::MeshSurface;
 use super::pose::{Pose, Trajectory};
 use super::surface::Surface;
@@ -24,20 +25,31 @@ pub struct Collider {
     pub friction: Real,
     /// The pose never changes: no per-step transforms.
     pub is_static: bool,
+    /// Sharp corners and edges, tested against cloth edges and triangles
+    /// (`crate::sim::sharp`), if the shape has any.
+    pub features: Option<Features>,
 }
 
 impl Collider {
     /// Builds a validated obstacle for a cloth of particle spacing
     /// `spacing` (which sets the default offset).
     pub fn new(o: &Obstacle, spacing: Real) -> Result<Self, MeshError> {
-        let surface: Box<dyn Surface> = match Primitive::of(o) {
-            Some(p) => Box::new(Analytic::new(p, o.offset, spacing)),
+        let (surface, features): (Box<dyn Surface>, _) = match Primitive::of(o) {
+            Some(p) => (
+                Box::new(Analytic::new(p.clone(), o.offset, spacing)),
+                Features::of_primitive(&p),
+            ),
             None => {
                 let source = o
                     .mesh
                     .as_ref()
                     .ok_or_else(|| MeshError("has no shape".into()))?;
-                Box::new(MeshSurface::new(from_source(source)?, o.offset, spacing))
+                let mesh = from_source(source)?;
+                let features = Features::of_mesh(&mesh);
+                (
+                    Box::new(MeshSurface::new(mesh, o.offset, spacing)),
+                    features,
+                )
             }
         };
         let trajectory = Trajectory::new(o.motion.as_ref());
@@ -46,6 +58,7 @@ impl Collider {
             is_static: trajectory.is_static(),
             trajectory,
             friction: o.friction,
+            features,
         })
     }
 

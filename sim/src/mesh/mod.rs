@@ -11,7 +11,7 @@ mod trimesh;
 
 pub use load::{from_obj, from_source, from_stl_base64};
 pub use normals::{angle_weighted_normals, edge_faces};
-pub use offset::{Curvature, default_offset, mesh_offset_requirement};
+pub use offset::{Curvature, SHARP_TURN, default_offset, mesh_offset_requirement, sharp_edges};
 pub use primitive::{
     frame_of, tessellate_box, tessellate_cylinder, tessellate_plane, tessellate_sphere,
 };

@@ -1,7 +1,10 @@
 //! How far out the collision surface sits (method.md §3, fig. 5): the
-//! offset `delta` that keeps an obstacle's edges and curvature from poking
-//! between cloth particles, since only particles (not cloth edges or faces)
-//! are tested.
+//! offset `delta` that keeps an obstacle's curvature and gentle edges from
+//! poking between cloth particles, since the offset surface tests only
+//! particles. Sharp edges and corners (a box's, mesh edges turning by
+//! [`SHARP_TURN`] or more) are tested against the cloth's edges and
+//! triangles directly (`crate::sim` sharp-feature stage) and add nothing
+//! here.
 //!
 //! A cloth edge of length `s` whose ends rest on the offset surface sags
 //! towards the obstacle between them. The default offset is the smallest
@@ -10,10 +13,10 @@
 //! - flat: no sag; only the margin;
 //! - smooth, radius `R`: the cloth triangle's diagonal `√2 s` sags
 //!   `(√2 s)² / 8R = s² / 4R`;
-//! - a sharp convex edge turning by `θ`, with an exact offset surface
-//!   (rounded by `delta`): a chord with ends on the two faces' offset planes
+//! - a sharp convex edge turning by `θ` that is not a tested feature (a
+//!   cylinder's rim), with an exact offset surface (rounded by `delta`): a chord with ends on the two faces' offset planes
 //!   passes the edge at `delta / cos(θ/2) - (s/2) tan(θ/2)`, which is
-//!   non-negative for `delta >= (s/2) sin(θ/2)`: `0.354 s` for a box edge;
+//!   non-negative for `delta >= (s/2) sin(θ/2)`: `0.354 s` at a right angle;
 //! - a mesh offset along vertex normals is chamfered, not rounded, at a
 //!   sharp edge: the chord passes the chamfer's apex at
 //!   `delta - (s/2) tan(θ/2)`, so `delta >= (s/2) tan(θ/2)`.
@@ -61,16 +64,23 @@ pub fn default_offset(spacing: Real, curvature: Curvature) -> Real {
     MARGIN * spacing + need
 }
 
-/// The offset a mesh needs beyond the margin: the chamfer requirement
-/// `(s/2) tan(Θ/2)`, largest over convex edges, where `Θ` is the turn a
-/// cloth edge of length `s` must follow there. An edge turning by `θ`
-/// between faces wider than `s` is a sharp edge, `Θ = θ`; where the faces
-/// are narrower (a fine tessellation of a curved surface) the cloth edge
-/// spans `s / w` such edges, `Θ = θ s / w`, which for a smooth surface of
-/// radius `R` (`θ / w = 1 / R`) gives the smooth bound `s² / 4R` again.
-pub fn mesh_offset_requirement(mesh: &TriMesh, spacing: Real) -> Real {
-    let s = spacing * STRETCH;
-    let mut need: Real = 0.0;
+/// A turn at which a mesh edge is a sharp feature: tested against cloth
+/// edges and triangles directly (`collision::Features`), so it no longer
+/// sets the offset. At this turn the chamfer requirement would be
+/// `(s/2) tan 10° = 0.09 s`; every gentler edge stays under it.
+pub const SHARP_TURN: Real = 20.0 * std::f64::consts::PI / 180.0;
+
+/// A convex edge of a mesh: its vertices, the turn `θ` between its
+/// faces' normals and the width `w` of the faces across it.
+struct Convex {
+    edge: [u32; 2],
+    theta: Real,
+    width: Real,
+}
+
+/// Every convex edge between two faces, in a fixed order.
+fn convex_edges(mesh: &TriMesh) -> Vec<Convex> {
+    let mut out = Vec::new();
     for (&(a, b), faces) in &edge_faces(mesh) {
         let [f, g] = match faces.as_slice() {
             [f, g] => [*f as usize, *g as usize],
@@ -89,10 +99,52 @@ pub fn mesh_offset_requirement(mesh: &TriMesh, spacing: Real) -> Real {
         }
         let len = (mesh.vertices()[b as usize] - pa).norm();
         let width = (mesh.double_area(f) + mesh.double_area(g)) / (2.0 * len);
-        let turn = (theta * (s / width).max(1.0)).min(MAX_TURN);
-        need = need.max(0.5 * s * (turn / 2.0).tan());
+        out.push(Convex {
+            edge: [a, b],
+            theta,
+            width,
+        });
     }
-    need
+    out.sort_unstable_by_key(|c| c.edge);
+    out
+}
+
+/// The mesh's sharp features: convex edges turning by [`SHARP_TURN`] or
+/// more, and boundary edges (a sheet's rim, a knife edge), sorted.
+pub fn sharp_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
+    let mut sharp: Vec<[u32; 2]> = convex_edges(mesh)
+        .into_iter()
+        .filter(|c| c.theta >= SHARP_TURN)
+        .map(|c| c.edge)
+        .collect();
+    sharp.extend(
+        edge_faces(mesh)
+            .into_iter()
+            .filter(|(_, faces)| faces.len() == 1)
+            .map(|((a, b), _)| [a, b]),
+    );
+    sharp.sort_unstable();
+    sharp
+}
+
+/// The offset a mesh needs beyond the margin: the chamfer requirement
+/// `(s/2) tan(Θ/2)`, largest over the convex edges that are not sharp
+/// features (those are tested directly), where `Θ` is the turn a cloth
+/// edge of length `s` must follow there. An edge turning by `θ` between
+/// faces wider than `s` turns the cloth edge by `Θ = θ`; where the faces
+/// are narrower (a fine tessellation of a curved surface) the cloth edge
+/// spans `s / w` such edges, `Θ = θ s / w`, which for a smooth surface of
+/// radius `R` (`θ / w = 1 / R`) gives the smooth bound `s² / 4R` again.
+pub fn mesh_offset_requirement(mesh: &TriMesh, spacing: Real) -> Real {
+    let s = spacing * STRETCH;
+    convex_edges(mesh)
+        .iter()
+        .filter(|c| c.theta < SHARP_TURN)
+        .map(|c| {
+            let turn = (c.theta * (s / c.width).max(1.0)).min(MAX_TURN);
+            0.5 * s * (turn / 2.0).tan()
+        })
+        .fold(0.0, Real::max)
 }
 
 #[cfg(test)]
@@ -110,9 +162,11 @@ mod tests {
         assert!(
             default_offset(s, Curvature::Smooth(1.0)) < default_offset(s, Curvature::Smooth(0.5))
         );
-        // A cube mesh: chamfer at 90°, (s/2) tan 45° = s/2 (times stretch).
+        // A cube mesh: its 90° edges are sharp features, tested directly,
+        // and its flat faces need no more than the margin.
         let cube = tessellate_box(Vec3::zeros(), Vec3::repeat(1.0), 0.25).expect("tessellates");
-        assert!((mesh_offset_requirement(&cube, s) - 0.051).abs() < 1e-12);
+        assert_eq!(mesh_offset_requirement(&cube, s), 0.0);
+        assert_eq!(sharp_edges(&cube).len(), 12 * 4, "12 edges of 4 segments");
         // A fine sphere mesh needs about the smooth requirement, far less
         // than a sharp edge.
         let ball = tessellate_sphere(Vec3::zeros(), 0.5, 0.01).expect("tessellates");

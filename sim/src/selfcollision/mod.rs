@@ -26,6 +26,7 @@ mod impulse;
 mod response;
 mod topology;
 
+pub use ccd::{Closest, Kind, Moving, closest};
 pub use crossings::{count_crossings, count_crossings_culled};
 pub use geometry::{point_triangle, segment_crosses_triangle};
 pub use impulse::Hold;

@@ -167,6 +167,7 @@ impl Simulation {
             self_failsafe_steps: 0,
             self_collision_seconds: 0.0,
             self_crossings: 0,
+            obstacle_crossings: 0,
         }
     }
 
@@ -203,6 +204,12 @@ impl Simulation {
             .self_collision
             .as_mut()
             .map_or(0, |sc| sc.crossings(&self.run.state.x));
+        let obstacle_crossings = match (&mut self.ws.sharp, &self.world.obstacles) {
+            (Some(sharp), Some(obstacles)) => {
+                sharp.crossings(obstacles, self.run.state.time, &self.run.state.x)
+            }
+            _ => 0,
+        };
         let stats = FrameStats {
             steps: acc.steps,
             cg_iterations: acc.iterations,
@@ -224,6 +231,7 @@ impl Simulation {
             self_failsafe_steps: acc.self_failsafe_steps,
             self_collision_seconds: acc.times.get(super::stage::Stage::SelfCollision),
             self_crossings,
+            obstacle_crossings,
             ..self.snapshot_stats()
         };
         if let Some(p) = control.progress {

@@ -31,11 +31,14 @@ pub enum Stage {
     /// The accepted motion is kept from passing the cloth through itself
     /// (`selfcollision`).
     SelfCollision,
+    /// Cloth edges and triangles are kept off obstacles' sharp corners and
+    /// edges (`sim::sharp`).
+    SharpFeatures,
 }
 
 impl Stage {
     /// Every stage, in step order.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
         Stage::Constrain,
         Stage::CollisionPrepare,
         Stage::Assemble,
@@ -45,6 +48,7 @@ impl Stage {
         Stage::Correct,
         Stage::CollisionResolve,
         Stage::SelfCollision,
+        Stage::SharpFeatures,
     ];
 
     /// The stage's name in traces and `stats.json`.
@@ -59,12 +63,16 @@ impl Stage {
             Stage::Correct => "correct",
             Stage::CollisionResolve => "collision_resolve",
             Stage::SelfCollision => "self_collision",
+            Stage::SharpFeatures => "sharp_features",
         }
     }
 
     /// Whether the stage belongs to collision handling.
     pub fn is_collision(self) -> bool {
-        matches!(self, Stage::CollisionPrepare | Stage::CollisionResolve)
+        matches!(
+            self,
+            Stage::CollisionPrepare | Stage::CollisionResolve | Stage::SharpFeatures
+        )
     }
 }
 

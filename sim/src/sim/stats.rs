@@ -77,6 +77,10 @@ pub struct FrameStats {
     /// where it is not counted).
     #[serde(default)]
     pub self_crossings: usize,
+    /// Obstacle edges through cloth triangles at the frame (the sharp
+    /// edges of boxes and meshes, `sim::sharp`; 0 without them).
+    #[serde(default)]
+    pub obstacle_crossings: usize,
 }
 
 /// A whole run's statistics (`stats.json`).
@@ -139,6 +143,8 @@ pub struct RunStats {
     /// Most cloth edges through cloth triangles at any frame (0 with
     /// self-collision off, where it is not counted).
     pub self_crossings_max: usize,
+    /// Most obstacle edges through cloth triangles at any frame.
+    pub obstacle_crossings_max: usize,
     /// Smallest signed distance to a true obstacle surface over all frames
     /// (negative = inside); `None` without obstacles.
     pub min_signed_distance: Option<f64>,
@@ -193,6 +199,7 @@ impl StatsRecorder {
                 self_failsafe_steps: 0,
                 self_collision_seconds: 0.0,
                 self_crossings_max: 0,
+                obstacle_crossings_max: 0,
                 min_signed_distance: None,
                 max_stretch: 0.0,
                 max_stretch_any_frame: 0.0,
@@ -228,6 +235,7 @@ impl StatsRecorder {
         s.self_failsafe_steps += f.self_failsafe_steps;
         s.self_collision_seconds += f.self_collision_seconds;
         s.self_crossings_max = s.self_crossings_max.max(f.self_crossings);
+        s.obstacle_crossings_max = s.obstacle_crossings_max.max(f.obstacle_crossings);
         s.min_signed_distance = match (s.min_signed_distance, f.min_signed_distance) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),

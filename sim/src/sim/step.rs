@@ -9,6 +9,8 @@
 //! | solve | the modified PCG (filtered residual) |
 //! | update | `v += dv`, `x += p + h' v + y`, finiteness |
 //! | collision resolve | the path taken: accept (release, friction) or redo with new contacts |
+//! | self-collision | the accepted motion kept from passing the cloth through itself |
+//! | sharp features | cloth edges and triangles kept off obstacles' corners and edges |
 //!
 //! A redo (at most [`MAX_REDOS`] per step) starts again from the
 //! constrain stage with the step's start state and the grown contact set;
@@ -90,6 +92,16 @@ pub fn step(
                     &run.state.v,
                     &run.warm_start,
                     &mut ws.constraints,
+                )
+            });
+        }
+        if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
+            clock.run(Stage::SharpFeatures, || {
+                sharp.prepare(
+                    obstacles,
+                    frame.time,
+                    &run.state.x,
+                    &mut ws.constraints.couplings,
                 )
             });
         }
@@ -192,6 +204,18 @@ pub fn step(
                         &mut run.contacts,
                     )
                 });
+                if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
+                    clock.run(Stage::SharpFeatures, || {
+                        sharp.run(
+                            &frame,
+                            obstacles,
+                            &ws.step_start.x,
+                            &mut run.state,
+                            &mut ws.moved,
+                            &mut run.contacts,
+                        )
+                    });
+                }
                 // BDF2's memory: this step's motion, before the warm start
                 // is corrected below.
                 run.last_moved.clone_from(&ws.moved);

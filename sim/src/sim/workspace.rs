@@ -2,6 +2,7 @@
 //! the next step overwrites, kept only so that nothing allocates per step.
 
 use super::apart::ApartScratch;
+use super::sharp::SharpStage;
 use super::state::RunState;
 use super::world::World;
 use crate::collision::CollisionScratch;
@@ -29,6 +30,8 @@ pub struct Workspace {
     pub self_collision: Option<SelfCollision>,
     /// The self-collision stage's buffers.
     pub apart: ApartScratch,
+    /// The sharp-feature stage (`None` when no obstacle has features).
+    pub sharp: Option<SharpStage>,
 }
 
 impl Workspace {
@@ -50,6 +53,17 @@ impl Workspace {
                 .self_thickness
                 .map(|t| SelfCollision::new(&world.grid, t)),
             apart: ApartScratch::default(),
+            sharp: SharpStage::new(
+                &world.grid,
+                world
+                    .model
+                    .stretch
+                    .springs
+                    .iter()
+                    .map(|s| s.k)
+                    .fold(0.0, crate::math::Real::max),
+                world.obstacles.as_ref(),
+            ),
         }
     }
 

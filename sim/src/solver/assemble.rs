@@ -38,7 +38,7 @@ pub struct System {
     /// The displacement `K` multiplies in `b` (`h' v0 + p + y`, or `y`
     /// after a prediction), per particle: computed once per assembly
     /// rather than once per element it is in.
-    w: Vec<Vec3>,
+    pub(super) w: Vec<Vec3>,
     /// Per force term, per element, the `N x N` slots of its blocks.
     slots: [Vec<u32>; TERMS],
     /// The bands of rows assembled in parallel.

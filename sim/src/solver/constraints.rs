@@ -7,9 +7,12 @@
 //!   neighbours feel it through the springs in the same solve.
 //!
 //! - an impulse added to `b`: friction forces that are not constraints.
+//! - couplings: springs holding a few particles off an obstacle's sharp
+//!   feature (`super::coupling`), added to `A` and `b`.
 //!
 //! Pins and obstacle contacts fill the same arrays.
 
+use super::coupling::Coupling;
 use crate::math::{Mat3, Real, Vec3};
 
 /// The filter `S_i`: which directions of particle `i` the solve may change.
@@ -93,6 +96,8 @@ pub struct Constraints {
     pub y: Vec<Vec3>,
     /// Impulses added to `b` this step (kinetic friction).
     pub impulse: Vec<Vec3>,
+    /// Springs to obstacles' sharp features (`super::coupling`).
+    pub couplings: Vec<Coupling>,
 }
 
 impl Constraints {
@@ -103,6 +108,7 @@ impl Constraints {
             z: vec![Vec3::zeros(); n],
             y: vec![Vec3::zeros(); n],
             impulse: vec![Vec3::zeros(); n],
+            couplings: Vec::new(),
         }
     }
 
@@ -112,6 +118,7 @@ impl Constraints {
         self.z.fill(Vec3::zeros());
         self.y.fill(Vec3::zeros());
         self.impulse.fill(Vec3::zeros());
+        self.couplings.clear();
     }
 
     /// Fixes particle `i`: its `dv` becomes `dv`, its position moves by `y`

@@ -18,6 +18,7 @@
 
 use super::assemble::{AssemblyInput, System};
 use super::constraints::{Constraints, Filter};
+use super::coupling;
 use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
 use super::multigrid::Multigrid;
@@ -188,6 +189,16 @@ impl Integrator {
         for (b, j) in self.system.b.iter_mut().zip(&constraints.impulse) {
             *b += j * gamma;
         }
+        let x = if predicted { &self.predicted } else { &state.x };
+        let system = &mut self.system;
+        coupling::add(
+            &constraints.couplings,
+            x,
+            &system.w,
+            scheme.h_eff(),
+            &mut system.a,
+            &mut system.b,
+        );
     }
 
     /// Stage 2: starts the solve from the warm start `dv` (zeroed first
@@ -311,6 +322,15 @@ impl Integrator {
                 gravity: physics.gravity,
                 scheme: *scheme,
             },
+        );
+        let system = &mut self.system;
+        coupling::add(
+            &constraints.couplings,
+            &end.x,
+            &system.w,
+            scheme.h_eff(),
+            &mut system.a,
+            &mut system.b,
         );
         self.system.a.mul(dv, &mut self.product);
         let gamma = scheme.gamma;

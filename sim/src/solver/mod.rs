@@ -11,7 +11,8 @@
 //! - [`System`]: assembly of `A = M - h D - h² K` and
 //!   `b = h (f0 + K (h v0 + y))`.
 //! - [`Constraints`]: per-particle filters `S_i`, targets `z_i`, position
-//!   corrections `y_i` (pins and contacts fill the same arrays).
+//!   corrections `y_i` (pins and contacts fill the same arrays), and
+//!   [`Coupling`]s: stiff one-sided springs to obstacles' sharp features.
 //! - [`mpcg`]: the modified preconditioned conjugate gradient (Baraff &
 //!   Witkin 1998 §5) behind the [`Preconditioner`] trait.
 //! - [`Integrator`]: the system, its preconditioner and the solver's
@@ -21,6 +22,7 @@
 mod assemble;
 mod bsr;
 mod constraints;
+mod coupling;
 mod integrator;
 mod lines;
 mod local_error;
@@ -33,6 +35,7 @@ mod state;
 pub use assemble::{AssemblyInput, System};
 pub use bsr::BlockCsr;
 pub use constraints::{Constraints, Filter};
+pub use coupling::Coupling;
 pub use integrator::{Integrator, Physics, StepError, update};
 pub use lines::AlternatingLines;
 pub use local_error::local_error;

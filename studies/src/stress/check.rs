@@ -1,7 +1,8 @@
 //! Running a case and checking it: finite, stretch within its bound, no
 //! particle more than [`MAX_PENETRATION`] inside a true surface, no cloth
-//! edge through the cloth at any frame (cases with self-collision on),
-//! every solve converged.
+//! edge through the cloth at any frame (cases with self-collision on), no
+//! obstacle edge through a cloth triangle at any frame, every solve
+//! converged.
 
 use drapery_sim::spec::{Limits, TimeStep};
 
@@ -30,6 +31,9 @@ pub struct Outcome {
     /// Most cloth edges through cloth triangles at any frame; `None` with
     /// self-collision off.
     pub self_crossings: Option<usize>,
+    /// Most obstacle edges (boxes', meshes' sharp edges) through cloth
+    /// triangles at any frame.
+    pub obstacle_crossings: usize,
     /// Most CG iterations of any one solve.
     pub cg_iterations_max: usize,
     /// Solves that stopped at the iteration cap.
@@ -59,6 +63,7 @@ pub fn run(case: &Case) -> Outcome {
         max_stretch: f64::NAN,
         min_signed_distance: None,
         self_crossings: None,
+        obstacle_crossings: 0,
         cg_iterations_max: 0,
         unconverged_solves: 0,
         wall_seconds: 0.0,
@@ -86,6 +91,7 @@ pub fn run(case: &Case) -> Outcome {
     out.max_stretch = stats.max_stretch_any_frame;
     out.min_signed_distance = stats.min_signed_distance;
     out.self_crossings = scene.cloth.self_thickness.map(|_| stats.self_crossings_max);
+    out.obstacle_crossings = stats.obstacle_crossings_max;
     out.cg_iterations_max = stats.cg_iterations_max;
     out.unconverged_solves = stats.unconverged_solves;
     out.wall_seconds = stats.wall_seconds;
@@ -114,6 +120,12 @@ pub fn run(case: &Case) -> Outcome {
     if let Some(n) = out.self_crossings.filter(|&n| n > 0) {
         out.failures
             .push(format!("{n} cloth edges through the cloth at a frame"));
+    }
+    if out.obstacle_crossings > 0 {
+        out.failures.push(format!(
+            "{} obstacle edges through cloth triangles at a frame",
+            out.obstacle_crossings
+        ));
     }
     if stats.unconverged_solves > 0 {
         out.failures.push(format!(
