@@ -124,6 +124,20 @@ pub fn step(
         let mut pass = 0;
         let mut solve = loop {
             if pass > 0 {
+                // The couplings of the pairs as they are where the
+                // correction linearises: a chord that slid over an edge
+                // in the first solve has a new closest point and direction.
+                if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
+                    ws.constraints.couplings.clear();
+                    clock.run(Stage::SharpFeatures, || {
+                        sharp.prepare(
+                            obstacles,
+                            frame.time + h,
+                            &run.state.x,
+                            &mut ws.constraints.couplings,
+                        )
+                    });
+                }
                 clock.run(Stage::Correct, || {
                     ws.integrator.correct(
                         &physics,

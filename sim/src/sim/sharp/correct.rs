@@ -1,8 +1,7 @@
 //! The sharp-feature stage's correction after the solve: sweeps that move
 //! pairs apart, then the freeze that ends every remaining meeting.
 
-use super::pairs::Point;
-use super::{HARD, SharpStage};
+use super::stage::{HARD, Point, SharpStage};
 use crate::collision::{Obstacles, StepFrame};
 use crate::math::{Real, Vec3};
 use crate::selfcollision::{Kind, Moving, closest};

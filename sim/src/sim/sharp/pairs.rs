@@ -1,7 +1,7 @@
 //! The sharp-feature stage's pairs: the obstacles' corners this step, the
 //! cloth elements near them, and each pair's four points.
 
-use super::SharpStage;
+use super::stage::{Point, SharpStage};
 use crate::collision::{Aabb, Obstacles};
 use crate::math::{Real, Vec3};
 use crate::selfcollision::{Kind, Moving};
@@ -119,13 +119,4 @@ impl SharpStage {
             d: points.each_ref().map(|p| stop(p) - start(p)),
         }
     }
-}
-
-/// One of a pair's four points.
-#[derive(Debug, Clone, Copy)]
-pub(super) enum Point {
-    /// A cloth particle.
-    Cloth(u32),
-    /// An obstacle corner (index into the step's features).
-    Corner(u32),
 }
