@@ -169,6 +169,46 @@ fn table_drape_rests_on_the_table_and_nothing_cuts_into_it() {
     assert!(common::lowest_z(last) < 0.6);
 }
 
+/// A round table: a cylinder's rims are traced as features too, so its
+/// offset is the margin plus the side's curvature (3.3 mm at this
+/// spacing; 16.9 mm when the rims set it) and nothing crosses a rim.
+#[test]
+fn cloth_over_a_round_table_rests_on_it_and_no_rim_cuts_it() {
+    let scene = scene_from_json(
+        r#"{"name": "round-table",
+            "cloth": {"grid": [30, 30], "size": [1.2, 1.2], "origin": [-0.6, -0.6, 0.8]},
+            "material": "cotton",
+            "obstacles": [{"cylinder": {"center": [0, 0, 0.375], "axis": [0, 0, 1],
+                                        "radius": 0.35, "height": 0.75}, "friction": 0.3}],
+            "duration": 1.0, "fps": 30, "solver": {"dt": 0.004166666666666667}}"#,
+    );
+    let (sim, frames, stats) = run_checked_with_stats(&scene, Real::INFINITY);
+    let offset = sim.obstacles()[0].surface.offset();
+    assert!(offset < 4e-3, "offset {offset}");
+    for s in &stats {
+        assert_eq!(
+            s.obstacle_crossings, 0,
+            "frame {}: a rim through the cloth",
+            s.frame
+        );
+    }
+    let last = frames.last().expect("frames");
+    let mut top: Vec<Real> = last
+        .iter()
+        .filter(|p| p.xy().norm() < 0.3)
+        .map(|p| p.z - 0.75)
+        .collect();
+    top.sort_by(Real::total_cmp);
+    let median = top[top.len() / 2];
+    assert!(
+        top[0] > 0.0 && median <= 1.1 * offset,
+        "gap {} … median {median}",
+        top[0]
+    );
+    // Hanging down round the rim.
+    assert!(common::lowest_z(last) < 0.6);
+}
+
 #[test]
 fn rotating_sphere_carries_the_cloth_round() {
     let scene = example_scene("rotating-sphere.json");

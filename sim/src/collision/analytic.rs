@@ -72,7 +72,8 @@ impl Primitive {
             // A box's edges and corners are tested directly
             // (`super::Features`): its faces are flat.
             Self::Plane { .. } | Self::Box { .. } => Curvature::Flat,
-            Self::Cylinder { .. } => Curvature::Sharp(std::f64::consts::FRAC_PI_2),
+            // Its rims are features too; its side is curved.
+            Self::Cylinder { radius, .. } => Curvature::Smooth(*radius),
         }
     }
 

@@ -35,10 +35,11 @@ impl Collider {
     /// `spacing` (which sets the default offset).
     pub fn new(o: &Obstacle, spacing: Real) -> Result<Self, MeshError> {
         let (surface, features): (Box<dyn Surface>, _) = match Primitive::of(o) {
-            Some(p) => (
-                Box::new(Analytic::new(p.clone(), o.offset, spacing)),
-                Features::of_primitive(&p),
-            ),
+            Some(p) => {
+                let analytic = Analytic::new(p.clone(), o.offset, spacing);
+                let features = Features::of_primitive(&p, analytic.offset());
+                (Box::new(analytic), features)
+            }
             None => {
                 let source = o
                     .mesh

@@ -4,12 +4,13 @@
 //! offset to cover these; `sim::sharp` tests them directly instead, so
 //! the offset shrinks to its margin).
 //!
-//! A box has its 8 corners and 12 edges; a mesh its sharp convex edges
-//! and rims (`mesh::sharp_edges`) with their ends. Spheres and planes
-//! have none, and a cylinder's rims are still covered by its offset.
+//! A box has its 8 corners and 12 edges; a cylinder its two rims, as
+//! polygons around them; a mesh its sharp convex edges and rims
+//! (`mesh::sharp_edges`) with their ends. Spheres and planes have none.
 
 use super::analytic::Primitive;
 use crate::math::{Real, Vec3};
+use crate::mesh::frame_of;
 use crate::mesh::{TriMesh, sharp_edges};
 
 /// Corners and edges of the true (not offset) surface.
@@ -22,9 +23,19 @@ pub struct Features {
 }
 
 impl Features {
-    /// The features of an exact primitive, or `None` when the default
-    /// offset still covers its shape.
-    pub fn of_primitive(p: &Primitive) -> Option<Self> {
+    /// The features of an exact primitive, or `None` for a smooth one;
+    /// `offset` is the primitive's collision offset (it sets how finely a
+    /// cylinder's rims are traced).
+    pub fn of_primitive(p: &Primitive, offset: Real) -> Option<Self> {
+        if let Primitive::Cylinder {
+            center,
+            axis,
+            radius,
+            half,
+        } = p
+        {
+            return Some(Self::of_rims(*center, *axis, *radius, *half, offset));
+        }
         let Primitive::Box { center, half } = p else {
             return None;
         };
@@ -41,6 +52,34 @@ impl Features {
             .filter(|[a, b]| a != b)
             .collect();
         Some(Self { points, edges })
+    }
+
+    /// A cylinder's rims as polygons circumscribed about them, so no point
+    /// of a polygon is inside the cylinder, with sides short enough that
+    /// their corners stand out from the rim by at most a twentieth of the
+    /// offset (`r (1/cos(π/n) - 1) <= offset/20`, a tenth of what the cloth
+    /// keeps from features; between 8 and 1024 sides).
+    fn of_rims(center: Vec3, axis: Vec3, radius: Real, half: Real, offset: Real) -> Self {
+        let out = 1.0 + 0.05 * offset / radius;
+        let sides = if out > 1.0 {
+            (std::f64::consts::PI / (1.0 / out).acos()).ceil()
+        } else {
+            1024.0
+        };
+        let sides = sides.clamp(8.0, 1024.0) as u32;
+        let (u, v) = frame_of(&axis);
+        let reach = radius / (std::f64::consts::PI / Real::from(sides)).cos();
+        let mut points = Vec::with_capacity(2 * sides as usize);
+        let mut edges = Vec::with_capacity(2 * sides as usize);
+        for (rim, end) in [-half, half].into_iter().enumerate() {
+            let base = rim as u32 * sides;
+            for k in 0..sides {
+                let a = std::f64::consts::TAU * Real::from(k) / Real::from(sides);
+                points.push(center + axis * end + (u * a.cos() + v * a.sin()) * reach);
+                edges.push([base + k, base + (k + 1) % sides]);
+            }
+        }
+        Self { points, edges }
     }
 
     /// The sharp edges of a mesh and their ends, or `None` if it has none.
@@ -84,10 +123,13 @@ mod tests {
     #[test]
     fn a_box_has_eight_corners_and_twelve_edges_of_its_sides() {
         let half = Vec3::new(0.5, 0.25, 0.1);
-        let f = Features::of_primitive(&Primitive::Box {
-            center: Vec3::z(),
-            half,
-        })
+        let f = Features::of_primitive(
+            &Primitive::Box {
+                center: Vec3::z(),
+                half,
+            },
+            1e-3,
+        )
         .expect("a box has features");
         assert_eq!(f.points.len(), 8);
         assert_eq!(f.edges.len(), 12);
@@ -108,7 +150,35 @@ mod tests {
             center: Vec3::zeros(),
             radius: 1.0,
         };
-        assert!(Features::of_primitive(&sphere).is_none());
+        assert!(Features::of_primitive(&sphere, 1e-3).is_none());
+    }
+
+    #[test]
+    fn a_cylinders_rims_are_traced_outside_it_within_a_twentieth_of_the_offset() {
+        let (radius, offset) = (0.2, 2e-3);
+        let f = Features::of_primitive(
+            &Primitive::Cylinder {
+                center: Vec3::zeros(),
+                axis: Vec3::new(1.0, 1.0, 0.0).normalize(),
+                radius,
+                half: 0.3,
+            },
+            offset,
+        )
+        .expect("rims");
+        assert_eq!(f.points.len(), f.edges.len());
+        let axis = Vec3::new(1.0, 1.0, 0.0).normalize();
+        for &[a, b] in &f.edges {
+            let (p, q) = (f.points[a as usize], f.points[b as usize]);
+            // Both ends on one rim plane, and the side's midpoint (nearest
+            // the axis) on the rim or outside it.
+            assert!((p.dot(&axis) - q.dot(&axis)).abs() < 1e-12);
+            let mid = (p + q) / 2.0;
+            let r = (mid - axis * mid.dot(&axis)).norm();
+            assert!(r >= radius * (1.0 - 1e-12), "{r}");
+            let corner = (p - axis * p.dot(&axis)).norm();
+            assert!(corner - radius <= 0.05 * offset, "{corner}");
+        }
     }
 
     #[test]

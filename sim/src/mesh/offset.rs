@@ -1,8 +1,8 @@
 //! How far out the collision surface sits (method.md §3, fig. 5): the
 //! offset `delta` that keeps an obstacle's curvature and gentle edges from
 //! poking between cloth particles, since the offset surface tests only
-//! particles. Sharp edges and corners (a box's, mesh edges turning by
-//! [`SHARP_TURN`] or more) are tested against the cloth's edges and
+//! particles. Sharp edges and corners (a box's, a cylinder's rims, mesh
+//! edges turning by [`SHARP_TURN`] or more) are tested against the cloth's edges and
 //! triangles directly (`crate::sim` sharp-feature stage) and add nothing
 //! here.
 //!
@@ -13,13 +13,13 @@
 //! - flat: no sag; only the margin;
 //! - smooth, radius `R`: the cloth triangle's diagonal `√2 s` sags
 //!   `(√2 s)² / 8R = s² / 4R`;
-//! - a sharp convex edge turning by `θ` that is not a tested feature (a
-//!   cylinder's rim), with an exact offset surface (rounded by `delta`): a chord with ends on the two faces' offset planes
-//!   passes the edge at `delta / cos(θ/2) - (s/2) tan(θ/2)`, which is
-//!   non-negative for `delta >= (s/2) sin(θ/2)`: `0.354 s` at a right angle;
-//! - a mesh offset along vertex normals is chamfered, not rounded, at a
-//!   sharp edge: the chord passes the chamfer's apex at
-//!   `delta - (s/2) tan(θ/2)`, so `delta >= (s/2) tan(θ/2)`.
+//! - a mesh offset along vertex normals is chamfered, not rounded, at an
+//!   edge turning by `θ`: the chord passes the chamfer's apex at
+//!   `delta - (s/2) tan(θ/2)`, so `delta >= (s/2) tan(θ/2)` for the edges
+//!   gentler than [`SHARP_TURN`]. (An exact offset surface, rounded by
+//!   `delta`, would need `(s/2) sin(θ/2)`: `0.354 s` at a box's edge,
+//!   which is what boxes and cylinders had before their edges were
+//!   tested.)
 //!
 //! `s` is taken 2 % long (the stretch the solver allows) and the margin is
 //! 5 % of the spacing: what solver tolerance and the one-step lag of
@@ -44,9 +44,6 @@ pub enum Curvature {
     Flat,
     /// A smooth surface with this smallest radius of curvature.
     Smooth(Real),
-    /// Exact surface with sharp convex edges turning by this angle (and
-    /// possibly smooth parts of larger radius).
-    Sharp(Real),
     /// A triangle mesh offset along vertex normals, with this requirement
     /// (from [`mesh_offset_requirement`]).
     Mesh(Real),
@@ -58,7 +55,6 @@ pub fn default_offset(spacing: Real, curvature: Curvature) -> Real {
     let need = match curvature {
         Curvature::Flat => 0.0,
         Curvature::Smooth(r) => (s * s / (4.0 * r)).min(0.5 * s),
-        Curvature::Sharp(theta) => 0.5 * s * (theta.min(MAX_TURN) / 2.0).sin(),
         Curvature::Mesh(need) => need,
     };
     MARGIN * spacing + need
@@ -157,8 +153,6 @@ mod tests {
     fn offsets_follow_the_chord_bounds() {
         let s = 0.1;
         assert!((default_offset(s, Curvature::Flat) - 0.005).abs() < 1e-15);
-        let box_edge = default_offset(s, Curvature::Sharp(std::f64::consts::FRAC_PI_2));
-        assert!((box_edge - (0.005 + 0.051 * 0.5f64.sqrt())).abs() < 1e-12);
         assert!(
             default_offset(s, Curvature::Smooth(1.0)) < default_offset(s, Curvature::Smooth(0.5))
         );
