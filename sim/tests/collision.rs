@@ -60,6 +60,24 @@ fn run_checked_with_stats(
     (sim, frames, stats)
 }
 
+/// No obstacle edge passes through a cloth triangle at any frame.
+fn assert_no_obstacle_crossings(stats: &[FrameStats]) {
+    for s in stats {
+        assert_eq!(
+            s.obstacle_crossings, 0,
+            "frame {}: obstacle edges through the cloth",
+            s.frame
+        );
+    }
+}
+
+/// The heights above `level` of the particles `over` selects, ascending.
+fn heights_above(x: &[Vec3], level: Real, over: impl Fn(&Vec3) -> bool) -> Vec<Real> {
+    let mut h: Vec<Real> = x.iter().filter(|p| over(p)).map(|p| p.z - level).collect();
+    h.sort_by(Real::total_cmp);
+    h
+}
+
 fn sphere_distance(p: &Vec3, center: Vec3, radius: Real) -> Real {
     (p - center).norm() - radius
 }
@@ -142,24 +160,13 @@ fn table_drape_rests_on_the_table_and_nothing_cuts_into_it() {
         }
     }
     assert!(worst > 0.0, "a cloth edge is {:.3} mm inside", -worst * 1e3);
-    for s in &stats {
-        assert_eq!(
-            s.obstacle_crossings, 0,
-            "frame {}: table edges through the cloth",
-            s.frame
-        );
-    }
+    assert_no_obstacle_crossings(&stats);
     // Resting on the top: the particles over the table's middle lie on it
     // at the offset (1.36 mm at 60²), under the 3 mm, except
     // where the cloth wrinkles (at most 3.3 mm at the last frame).
     let last = frames.last().expect("frames");
-    let mut top: Vec<Real> = last
-        .iter()
-        .filter(|p| p.x.abs() < 0.45 && p.y.abs() < 0.45)
-        .map(|p| p.z - 0.75)
-        .collect();
+    let top = heights_above(last, 0.75, |p| p.x.abs() < 0.45 && p.y.abs() < 0.45);
     assert!(top.len() > 1000);
-    top.sort_by(Real::total_cmp);
     let (lo, median, p90) = (top[0], top[top.len() / 2], top[top.len() * 9 / 10]);
     assert!(
         lo > 0.0 && median <= 3e-3 && p90 <= 3e-3,
@@ -185,20 +192,9 @@ fn cloth_over_a_round_table_rests_on_it_and_no_rim_cuts_it() {
     let (sim, frames, stats) = run_checked_with_stats(&scene, Real::INFINITY);
     let offset = sim.obstacles()[0].surface.offset();
     assert!(offset < 4e-3, "offset {offset}");
-    for s in &stats {
-        assert_eq!(
-            s.obstacle_crossings, 0,
-            "frame {}: a rim through the cloth",
-            s.frame
-        );
-    }
+    assert_no_obstacle_crossings(&stats);
     let last = frames.last().expect("frames");
-    let mut top: Vec<Real> = last
-        .iter()
-        .filter(|p| p.xy().norm() < 0.3)
-        .map(|p| p.z - 0.75)
-        .collect();
-    top.sort_by(Real::total_cmp);
+    let top = heights_above(last, 0.75, |p| p.xy().norm() < 0.3);
     let median = top[top.len() / 2];
     assert!(
         top[0] > 0.0 && median <= 1.1 * offset,

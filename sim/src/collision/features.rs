@@ -105,14 +105,6 @@ impl Features {
             .collect();
         Some(Self { points, edges })
     }
-
-    /// The longest edge: how far apart the feature points may be.
-    pub fn longest_edge(&self) -> Real {
-        self.edges
-            .iter()
-            .map(|&[a, b]| (self.points[a as usize] - self.points[b as usize]).norm())
-            .fold(0.0, Real::max)
-    }
 }
 
 #[cfg(test)]

@@ -25,6 +25,8 @@
 //! 5 % of the spacing: what solver tolerance and the one-step lag of
 //! release may leave a particle inside the offset surface.
 
+use std::collections::HashMap;
+
 use super::normals::edge_faces;
 use super::trimesh::TriMesh;
 use crate::math::Real;
@@ -74,10 +76,11 @@ struct Convex {
     width: Real,
 }
 
-/// Every convex edge between two faces, in a fixed order.
-fn convex_edges(mesh: &TriMesh) -> Vec<Convex> {
+/// Every convex edge between two faces (`faces`: the mesh's
+/// [`edge_faces`]), in a fixed order.
+fn convex_edges(mesh: &TriMesh, faces: &HashMap<(u32, u32), Vec<u32>>) -> Vec<Convex> {
     let mut out = Vec::new();
-    for (&(a, b), faces) in &edge_faces(mesh) {
+    for (&(a, b), faces) in faces {
         let [f, g] = match faces.as_slice() {
             [f, g] => [*f as usize, *g as usize],
             _ => continue, // boundary or non-manifold edge: no turn to follow
@@ -108,15 +111,16 @@ fn convex_edges(mesh: &TriMesh) -> Vec<Convex> {
 /// The mesh's sharp features: convex edges turning by [`SHARP_TURN`] or
 /// more, and boundary edges (a sheet's rim, a knife edge), sorted.
 pub fn sharp_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
-    let mut sharp: Vec<[u32; 2]> = convex_edges(mesh)
+    let faces = edge_faces(mesh);
+    let mut sharp: Vec<[u32; 2]> = convex_edges(mesh, &faces)
         .into_iter()
         .filter(|c| c.theta >= SHARP_TURN)
         .map(|c| c.edge)
         .collect();
     sharp.extend(
-        edge_faces(mesh)
+        faces
             .into_iter()
-            .filter(|(_, faces)| faces.len() == 1)
+            .filter(|(_, f)| f.len() == 1)
             .map(|((a, b), _)| [a, b]),
     );
     sharp.sort_unstable();
@@ -133,7 +137,7 @@ pub fn sharp_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
 /// radius `R` (`θ / w = 1 / R`) gives the smooth bound `s² / 4R` again.
 pub fn mesh_offset_requirement(mesh: &TriMesh, spacing: Real) -> Real {
     let s = spacing * STRETCH;
-    convex_edges(mesh)
+    convex_edges(mesh, &edge_faces(mesh))
         .iter()
         .filter(|c| c.theta < SHARP_TURN)
         .map(|c| {

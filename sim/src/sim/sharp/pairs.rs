@@ -7,10 +7,23 @@ use crate::math::{Real, Vec3};
 use crate::selfcollision::{Kind, Moving};
 
 impl SharpStage {
-    /// Every obstacle's corners at the step's start and end poses, and
-    /// the swept boxes of corners and feature edges, grown by what the
-    /// cloth keeps from them.
+    /// Every obstacle's corners at the step's start and end poses, their
+    /// swept boxes and the features' hierarchies refitted to them; nothing
+    /// to do when no obstacle with features moves (placed once by
+    /// [`SharpStage::new`]).
     pub(super) fn corners(&mut self, obstacles: &Obstacles, time: Real, h: Real) {
+        if !self.moves {
+            return;
+        }
+        self.place_corners(obstacles, time, h);
+        self.corner_tree.refit(&self.corner_boxes);
+        self.fedge_tree.refit(&self.fedge_boxes);
+    }
+
+    /// The corners at the step's start and end poses, and the swept boxes
+    /// of corners and feature edges, grown by what the cloth keeps from
+    /// them.
+    pub(super) fn place_corners(&mut self, obstacles: &Obstacles, time: Real, h: Real) {
         self.f0.clear();
         self.f1.clear();
         for c in obstacles.colliders() {

@@ -79,6 +79,12 @@ pub struct SharpStage {
     pub(super) released: Vec<u32>,
     /// The couplings' stiffness, N/m.
     pub(super) stiffness: Real,
+    /// Some obstacle with features moves: its corners are placed again
+    /// every step.
+    pub(super) moves: bool,
+    /// A particle moved farther than this loses its contact, metres
+    /// (`LIFT_OFF` of the smallest offset).
+    pub(super) lift_off: Real,
 }
 
 impl SharpStage {
@@ -106,7 +112,15 @@ impl SharpStage {
                 .fedges
                 .extend(f.edges.iter().map(|e| e.map(|v| v + base)));
         }
-        stage.corners(obstacles, 0.0, 0.0);
+        stage.moves = colliders
+            .iter()
+            .any(|c| c.features.is_some() && !c.is_static);
+        stage.lift_off = LIFT_OFF
+            * obstacles
+                .offsets()
+                .into_iter()
+                .fold(Real::INFINITY, Real::min);
+        stage.place_corners(obstacles, 0.0, 0.0);
         stage.corner_tree = Bvh::build(&stage.corner_boxes);
         stage.fedge_tree = Bvh::build(&stage.fedge_boxes);
         Some(stage)
@@ -150,6 +164,8 @@ impl SharpStage {
             w: Vec::new(),
             released: Vec::new(),
             stiffness: 0.0,
+            moves: false,
+            lift_off: 0.0,
         }
     }
 
@@ -164,8 +180,6 @@ impl SharpStage {
         couplings: &mut Vec<Coupling>,
     ) {
         self.corners(obstacles, time, 0.0);
-        self.corner_tree.refit(&self.corner_boxes);
-        self.fedge_tree.refit(&self.fedge_boxes);
         self.end.clear();
         self.end.extend_from_slice(x0);
         if !self.gather(x0) {
@@ -223,8 +237,6 @@ impl SharpStage {
     ) -> SharpReport {
         let mut report = SharpReport::default();
         self.corners(obstacles, frame.time, frame.h);
-        self.corner_tree.refit(&self.corner_boxes);
-        self.fedge_tree.refit(&self.fedge_boxes);
         self.end.clear();
         self.end
             .extend(x0.iter().zip(moved.iter()).map(|(x, d)| x + d));
@@ -253,11 +265,7 @@ impl SharpStage {
         self.w = w;
         report.frozen = self.freeze(obstacles, frame, x0);
         // Write back what changed.
-        let lift_off: Real = LIFT_OFF
-            * obstacles
-                .offsets()
-                .into_iter()
-                .fold(Real::INFINITY, Real::min);
+        let lift_off = self.lift_off;
         self.released.clear();
         for k in 0..n {
             let d = self.end[k] - x0[k];
