@@ -35,3 +35,25 @@ pub fn cotton_system(
     );
     (model, sys)
 }
+
+/// A flat `nu` x `nv` grid of `size` metres in the `xy` plane from the
+/// origin, of areal density 0.1 kg/m², nothing pinned.
+#[cfg(test)]
+pub fn flat_grid(nu: usize, nv: usize, size: [crate::math::Real; 2]) -> crate::cloth::Grid {
+    use crate::math::Vec3;
+    crate::cloth::Grid::new(
+        &crate::spec::ClothScene {
+            nu,
+            nv,
+            size,
+            origin: Vec3::zeros(),
+            u: Vec3::x(),
+            v: Vec3::y(),
+            pinned: vec![],
+            pin_group: vec![],
+            pin_motions: vec![],
+            self_thickness: None,
+        },
+        0.1,
+    )
+}

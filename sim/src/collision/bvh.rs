@@ -35,19 +35,35 @@ pub struct Bvh {
 impl Bvh {
     /// Builds the hierarchy over `boxes` (one per primitive).
     pub fn build(boxes: &[Aabb]) -> Self {
+        let centers: Vec<Vec3> = boxes.iter().map(Aabb::center).collect();
+        Self::build_by(boxes, |part| {
+            let cb = Aabb::of_points(part.iter().map(|&i| &centers[i as usize]));
+            let axis = (cb.hi - cb.lo).imax();
+            let mid = part.len() / 2;
+            part.select_nth_unstable_by(mid, |&a, &b| {
+                centers[a as usize][axis].total_cmp(&centers[b as usize][axis])
+            });
+            mid
+        })
+    }
+
+    /// Builds the hierarchy over `boxes` with `split` choosing each inner
+    /// node's children: it reorders a node's primitives and returns how
+    /// many go to the left child (at least one, fewer than all).
+    pub fn build_by(boxes: &[Aabb], mut split: impl FnMut(&mut [u32]) -> usize) -> Self {
         let mut bvh = Self {
             nodes: Vec::with_capacity(2 * boxes.len() / LEAF_SIZE + 1),
             order: (0..boxes.len() as u32).collect(),
             boxes: boxes.to_vec(),
         };
         if !boxes.is_empty() {
-            let centers: Vec<Vec3> = boxes.iter().map(Aabb::center).collect();
-            bvh.split(boxes, &centers, 0, boxes.len());
+            bvh.split(&mut split, 0, boxes.len());
         }
         bvh
     }
 
-    fn split(&mut self, boxes: &[Aabb], centers: &[Vec3], lo: usize, hi: usize) -> usize {
+    fn split(&mut self, part: &mut impl FnMut(&mut [u32]) -> usize, lo: usize, hi: usize) -> usize {
+        let boxes = &self.boxes;
         let aabb = self.order[lo..hi]
             .iter()
             .fold(Aabb::empty(), |b, &i| b.union(&boxes[i as usize]));
@@ -60,15 +76,9 @@ impl Bvh {
         if hi - lo <= LEAF_SIZE {
             return me;
         }
-        let cb = Aabb::of_points(self.order[lo..hi].iter().map(|&i| &centers[i as usize]));
-        let ext = cb.hi - cb.lo;
-        let axis = ext.imax();
-        let mid = (lo + hi) / 2;
-        self.order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
-            centers[a as usize][axis].total_cmp(&centers[b as usize][axis])
-        });
-        self.split(boxes, centers, lo, mid);
-        let right = self.split(boxes, centers, mid, hi);
+        let mid = lo + part(&mut self.order[lo..hi]).clamp(1, hi - lo - 1);
+        self.split(part, lo, mid);
+        let right = self.split(part, mid, hi);
         self.nodes[me].start = right as u32;
         self.nodes[me].count = 0;
         me
@@ -209,7 +219,7 @@ impl Bvh {
     /// cannot interact with each other.
     pub fn self_pairs_skipping(
         &self,
-        skip: impl Fn(usize) -> bool,
+        mut skip: impl FnMut(usize) -> bool,
         mut f: impl FnMut(usize, usize),
     ) {
         if self.nodes.is_empty() {
@@ -280,11 +290,11 @@ impl Bvh {
 
     /// One value per node, computed bottom-up: `leaf(primitives)` at a
     /// leaf, `merge(left, right)` at an inner node; `out[k]` is node `k`'s.
-    pub fn fold_up<T: Copy + Default>(
+    pub fn fold_up<T: Clone + Default>(
         &self,
         out: &mut Vec<T>,
         mut leaf: impl FnMut(&[u32]) -> T,
-        merge: impl Fn(&T, &T) -> T,
+        mut merge: impl FnMut(&T, &T) -> T,
     ) {
         out.clear();
         out.resize(self.nodes.len(), T::default());

@@ -20,12 +20,7 @@
 //! triangle of a patch bounds the patch's normals over the whole step.
 //! Cones are merged up the hierarchy (the smallest cone holding both).
 //!
-//! NOTE: the boundary condition is not tested. A patch here is a compact
-//! grid rectangle (the hierarchy splits the rest grid at medians), and for
-//! its projection to overlap itself with every normal inside 90° of one
-//! axis, the patch would have to wind about in its own plane, which the
-//! stretch springs forbid (a winding strip of width `w` stretches by
-//! about `2π w / L` over a length `L` no longer than a few `w`).
+//! The boundary condition is `super::contour`'s.
 
 use crate::math::{Real, Vec3};
 
@@ -64,6 +59,11 @@ impl Cone {
         cos: -1.0,
         sin: 0.0,
     };
+
+    /// The cone's axis (unit).
+    pub fn axis(&self) -> &Vec3 {
+        &self.axis
+    }
 
     /// Whether every direction of the cone is within
     /// [`FLAT_HALF_ANGLE`] of its axis.

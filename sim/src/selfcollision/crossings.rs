@@ -25,7 +25,7 @@ pub fn count_crossings_culled(mesh: &mut ClothMesh, x: &[Vec3]) -> usize {
     count_pairs(mesh, x, true)
 }
 
-fn count_pairs(mesh: &ClothMesh, x: &[Vec3], cull: bool) -> usize {
+fn count_pairs(mesh: &mut ClothMesh, x: &[Vec3], cull: bool) -> usize {
     let mut pairs = Vec::new();
     mesh.edge_face_pairs(cull, &mut pairs);
     pairs
@@ -43,24 +43,9 @@ mod tests {
     use super::*;
     use crate::cloth::Grid;
     use crate::math::Real;
-    use crate::spec::ClothScene;
 
     fn grid(n: usize) -> Grid {
-        Grid::new(
-            &ClothScene {
-                nu: n,
-                nv: n,
-                size: [1.0, 1.0],
-                origin: Vec3::zeros(),
-                u: Vec3::x(),
-                v: Vec3::y(),
-                pinned: vec![],
-                pin_group: vec![],
-                pin_motions: vec![],
-                self_thickness: None,
-            },
-            0.1,
-        )
+        crate::testing::flat_grid(n, n, [1.0, 1.0])
     }
 
     /// A flat sheet and one folded over itself without touching have no

@@ -7,19 +7,24 @@
 //! | `geometry` | closest points, the segment–triangle crossing |
 //! | `topology` | the cloth's triangles and edges, their owners, swept boxes and hierarchy |
 //! | `cones` | bounds on a patch's normals over a step: which patches cannot meet themselves |
+//! | `contour` | and whose boundary, projected, stays simple |
+//! | `couplings` | layers within the thickness held apart inside the solve |
 //! | `ccd` | continuous vertex–face and edge–edge tests |
 //! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |
 //! | `response` | proximity impulses, collision impulses, rigid impact zones |
 //! | `crossings` | the exact count of cloth edges through cloth triangles |
 //!
-//! It runs after a step's solve and obstacle collision are accepted, on
-//! the step's motion `x1 - x0`: the solve's particle filters cannot couple
-//! the four particles of a cloth–cloth pair, so the response is a velocity
+//! It runs twice a step. Before the solve, layers closer than the
+//! thickness become couplings, springs on a pair's four particles that
+//! the solve carries (`couplings`). After the solve and obstacle
+//! collision, on the step's motion `x1 - x0`, the response is a velocity
 //! correction of the accepted motion (Bridson, Fedkiw & Anderson 2002),
 //! which ends every step without crossings.
 
 mod ccd;
 mod cones;
+mod contour;
+mod couplings;
 mod crossings;
 mod geometry;
 mod impulse;
@@ -35,7 +40,7 @@ pub use topology::ClothMesh;
 
 use crate::cloth::Grid;
 use crate::math::{Real, Vec3};
-use crate::solver::ClothState;
+use crate::solver::{ClothState, Coupling};
 
 /// Default thickness as a share of the finer grid spacing: thin enough
 /// that no two particles of a flat or moderately sheared grid that do not
@@ -56,7 +61,10 @@ pub const FRICTION: Real = 0.3;
 pub struct SelfCollision {
     mesh: ClothMesh,
     scratch: response::Scratch,
+    layers: couplings::Layers,
     thickness: Real,
+    /// Lumped masses, for the couplings' stiffness.
+    mass: Vec<Real>,
     u: Vec<Vec3>,
     u0: Vec<Vec3>,
 }
@@ -67,6 +75,8 @@ impl SelfCollision {
         Self {
             mesh: ClothMesh::new(grid),
             scratch: response::Scratch::default(),
+            layers: couplings::Layers::default(),
+            mass: grid.mass.clone(),
             thickness,
             u: Vec::new(),
             u0: Vec::new(),
@@ -76,6 +86,13 @@ impl SelfCollision {
     /// The thickness layers keep.
     pub fn thickness(&self) -> Real {
         self.thickness
+    }
+
+    /// Before a step of `h`: appends a coupling for every pair of layers
+    /// closer than the thickness at `x` (`couplings`).
+    pub fn couple(&mut self, x: &[Vec3], h: Real, out: &mut Vec<Coupling>) {
+        self.layers
+            .couple(&mut self.mesh, x, self.thickness, &self.mass, h, out);
     }
 
     /// Corrects one step's motion so the cloth does not pass through

@@ -97,20 +97,6 @@ pub struct Scratch {
     mobility: Vec<Mobility>,
 }
 
-/// A pair's four particles.
-fn particles(mesh: &ClothMesh, kind: Kind, a: u32, b: u32) -> [usize; 4] {
-    match kind {
-        Kind::VertexFace => {
-            let t = mesh.triangles[b as usize];
-            [a as usize, t[0] as usize, t[1] as usize, t[2] as usize]
-        }
-        Kind::EdgeEdge => {
-            let (e, f) = (mesh.edges[a as usize], mesh.edges[b as usize]);
-            [e[0], e[1], f[0], f[1]].map(|k| k as usize)
-        }
-    }
-}
-
 impl Scratch {
     /// Changes the average velocities `u` so that `x0 + h u` keeps the
     /// cloth apart from itself.
@@ -158,13 +144,17 @@ impl Scratch {
             }
             fresh = false;
             let mut touched = std::mem::take(&mut self.touched);
-            let hits = self.collisions(mesh, m, u, |idx, cl, u| {
+            let hits = self.collisions(mesh, m, u, |kind, idx, cl, u| {
                 let w = idx.map(|k| inv_mass[k]);
                 let n = cl.gap.normalize();
                 let vn = relative(u, idx, &cl.c).dot(&n);
                 if vn < 0.0 {
                     apply(u, idx, &cl.c, &w, &(n * -vn));
-                    mark(&mut touched, idx, &cl.c);
+                    // Grid neighbours meet where the cloth crumples, not
+                    // where layers touch: not a self contact to show.
+                    if !mesh.grid_neighbours(kind, idx) {
+                        mark(&mut touched, idx, &cl.c);
+                    }
                 }
             });
             self.touched = touched;
@@ -190,7 +180,7 @@ impl Scratch {
         let lists = [(Kind::VertexFace, &self.vf), (Kind::EdgeEdge, &self.ee)];
         for (kind, pairs) in lists {
             for &(a, b) in pairs.iter() {
-                let idx = particles(mesh, kind, a, b);
+                let idx = mesh.particles(kind, a, b);
                 // Grid neighbours come close only by shearing, which the
                 // cloth's own forces answer: repelling them would fight
                 // shear (the collision passes still stop them crossing).
@@ -277,14 +267,14 @@ impl Scratch {
         mesh: &ClothMesh,
         m: &Motion<'_>,
         u: &mut [Vec3],
-        mut hit: impl FnMut(&[usize; 4], &Closest, &mut [Vec3]),
+        mut hit: impl FnMut(Kind, &[usize; 4], &Closest, &mut [Vec3]),
     ) -> usize {
         let eta = COLLISION_PAD * m.thickness;
         let mut hits = 0;
         let lists = [(Kind::VertexFace, &self.vf), (Kind::EdgeEdge, &self.ee)];
         for (kind, pairs) in lists {
             for &(a, b) in pairs.iter() {
-                let idx = particles(mesh, kind, a, b);
+                let idx = mesh.particles(kind, a, b);
                 let moving = Moving {
                     x: idx.map(|k| m.x0[k]),
                     d: idx.map(|k| u[k] * m.h),
@@ -299,7 +289,7 @@ impl Scratch {
                             c: cl.c,
                             gap: start.gap,
                         };
-                        hit(&idx, &cl, &mut *u);
+                        hit(kind, &idx, &cl, &mut *u);
                     }
                 }
             }
@@ -321,7 +311,7 @@ impl Scratch {
         for _ in 0..MAX_ZONE_ROUNDS {
             self.gather(mesh, m, u, COLLISION_PAD * m.thickness);
             let mut zone = std::mem::take(&mut self.zone);
-            let hits = self.collisions(mesh, m, u, |idx, _, _| {
+            let hits = self.collisions(mesh, m, u, |_, idx, _, _| {
                 for k in 1..4 {
                     union(&mut zone, idx[0], idx[k]);
                 }

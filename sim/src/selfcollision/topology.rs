@@ -17,6 +17,7 @@
 //! cone shows they cannot meet themselves (`super::cones`).
 
 use super::cones::Cone;
+use super::contour::{self, Contours};
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh};
 use crate::math::{Real, Vec3};
@@ -40,6 +41,13 @@ pub struct ClothMesh {
     cones: Vec<Cone>,
     /// Each vertex's swept box of the current query.
     pub vertex_boxes: Vec<Aabb>,
+    /// Per hierarchy node, its boundary: a flat patch is culled only if
+    /// its projected boundary stays simple.
+    contours: Contours,
+    contour_scratch: contour::Scratch,
+    /// The last refit's motion.
+    x0: Vec<Vec3>,
+    x1: Vec<Vec3>,
 }
 
 impl ClothMesh {
@@ -87,9 +95,38 @@ impl ClothMesh {
             .map(|e| Aabb::of_segment(&x[e[0] as usize], &x[e[1] as usize]))
             .collect();
         let vertex_boxes: Vec<Aabb> = x.iter().map(|p| Aabb::of_segment(p, p)).collect();
+        // Nodes are rectangles of grid quads (both triangles of each), cut
+        // across their longer side: every node's boundary is one loop,
+        // which the contour test needs (median splits of the triangles
+        // left three nodes in four pinched at a vertex or in pieces).
+        let cells = grid.nu - 1;
+        let tri_bvh = Bvh::build_by(&tri_boxes, |part| {
+            let cell = |t: u32| ((t as usize / 2) % cells, (t as usize / 2) / cells);
+            let (mut lo, mut hi) = ((usize::MAX, usize::MAX), (0, 0));
+            for &t in part.iter() {
+                let (i, j) = cell(t);
+                lo = (lo.0.min(i), lo.1.min(j));
+                hi = (hi.0.max(i), hi.1.max(j));
+            }
+            let along_u = hi.0 - lo.0 >= hi.1 - lo.1;
+            let key = |t: u32| if along_u { cell(t).0 } else { cell(t).1 };
+            let cut = if along_u { lo.0 + hi.0 } else { lo.1 + hi.1 }.div_ceil(2);
+            part.sort_unstable_by_key(|&t| (key(t) >= cut, t));
+            part.partition_point(|&t| key(t) < cut)
+        });
+        let edge_index = |a: u32, b: u32| {
+            let key = [a.min(b), a.max(b)];
+            edges.partition_point(|e| *e < key) as u32
+        };
+        let mut contours = Contours::build(&tri_bvh, &triangles, edge_index);
+        contours.keep_loops(&edges);
         Self {
             nu: grid.nu,
-            tri_bvh: Bvh::build(&tri_boxes),
+            tri_bvh,
+            contours,
+            contour_scratch: contour::Scratch::default(),
+            x0: Vec::new(),
+            x1: Vec::new(),
             triangles,
             edges,
             owned,
@@ -106,6 +143,10 @@ impl ClothMesh {
     /// over that motion, for [`ClothMesh::feature_pairs`].
     pub fn refit(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
         self.refit_boxes(x0, x1, pad);
+        self.x0.clear();
+        self.x0.extend_from_slice(x0);
+        self.x1.clear();
+        self.x1.extend_from_slice(x1);
         let triangles = &self.triangles;
         self.tri_bvh.fold_up(
             &mut self.cones,
@@ -143,10 +184,37 @@ impl ClothMesh {
     /// Every pair of distinct triangles whose boxes overlap, in the
     /// hierarchy's fixed order; with `cull`, except pairs inside a patch
     /// that the last [`ClothMesh::refit`] found cannot meet itself.
-    fn triangle_pairs(&self, cull: bool, f: impl FnMut(usize, usize)) {
-        let cones = &self.cones;
-        self.tri_bvh
-            .self_pairs_skipping(|node| cull && cones.get(node).is_some_and(Cone::is_flat), f);
+    fn triangle_pairs(
+        &self,
+        cull: bool,
+        scratch: &mut contour::Scratch,
+        f: impl FnMut(usize, usize),
+    ) {
+        let (cones, contours, edges) = (&self.cones, &self.contours, &self.edges);
+        let (x0, x1) = (&self.x0, &self.x1);
+        self.tri_bvh.self_pairs_skipping(
+            |node| {
+                cull && cones.get(node).is_some_and(|c| {
+                    c.is_flat() && contours.simple(node, c.axis(), edges, x0, x1, scratch)
+                })
+            },
+            f,
+        );
+    }
+
+    /// A pair's four particles: a vertex then a triangle's corners, or two
+    /// edges' ends (`a`, `b` as [`ClothMesh::feature_pairs`] lists them).
+    pub fn particles(&self, kind: super::ccd::Kind, a: u32, b: u32) -> [usize; 4] {
+        match kind {
+            super::ccd::Kind::VertexFace => {
+                let t = self.triangles[b as usize];
+                [a as usize, t[0] as usize, t[1] as usize, t[2] as usize]
+            }
+            super::ccd::Kind::EdgeEdge => {
+                let (e, f) = (self.edges[a as usize], self.edges[b as usize]);
+                [e[0], e[1], f[0], f[1]].map(|k| k as usize)
+            }
+        }
     }
 
     /// Whether a pair's two features (a vertex then a triangle, or two
@@ -174,10 +242,11 @@ impl ClothMesh {
     /// overlapping boxes and no shared vertex, once each (first index
     /// smaller), into `ee`: both in the hierarchy's fixed order, less the
     /// pairs inside patches that cannot meet themselves.
-    pub fn feature_pairs(&self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) {
+    pub fn feature_pairs(&mut self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) {
         vf.clear();
         ee.clear();
-        self.triangle_pairs(true, |s, t| {
+        let mut scratch = std::mem::take(&mut self.contour_scratch);
+        self.triangle_pairs(true, &mut scratch, |s, t| {
             let (os, ot) = (&self.owned[s], &self.owned[t]);
             for (mine, tri) in [(os, t), (ot, s)] {
                 let corners = &self.triangles[tri];
@@ -204,6 +273,7 @@ impl ClothMesh {
                 }
             }
         });
+        self.contour_scratch = scratch;
     }
 
     /// Whether every vertex box holds `x` with `margin` to spare: pairs
@@ -220,9 +290,10 @@ impl ClothMesh {
     /// vertex, in the hierarchy's fixed order, for the crossing count;
     /// with `cull`, less the pairs inside patches that the last
     /// [`ClothMesh::refit`] found cannot meet themselves.
-    pub fn edge_face_pairs(&self, cull: bool, out: &mut Vec<(u32, u32)>) {
+    pub fn edge_face_pairs(&mut self, cull: bool, out: &mut Vec<(u32, u32)>) {
         out.clear();
-        self.triangle_pairs(cull, |s, t| {
+        let mut scratch = std::mem::take(&mut self.contour_scratch);
+        self.triangle_pairs(cull, &mut scratch, |s, t| {
             for (owner, tri) in [(s, t), (t, s)] {
                 let corners = &self.triangles[tri];
                 for &e in self.owned[owner].edges.as_slice() {
@@ -236,6 +307,7 @@ impl ClothMesh {
                 }
             }
         });
+        self.contour_scratch = scratch;
     }
 }
 

@@ -4,6 +4,7 @@
 //! | --- | --- |
 //! | constrain | pins -> filters `S`, targets `z`, corrections `y` |
 //! | collision prepare | contacts and predicted crossings -> `S`, `z`, `y`, friction impulses |
+//! | couplings | pairs near obstacles' sharp features, and layers of cloth within the thickness -> springs in `A`, `b` |
 //! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]) |
 //! | precondition | the warm start's residual; the preconditioner from `A` unless that already converged |
 //! | solve | the modified PCG (filtered residual) |
@@ -105,6 +106,11 @@ pub fn step(
                 )
             });
         }
+        if let Some(layers) = &mut ws.self_collision {
+            clock.run(Stage::SelfCollision, || {
+                layers.couple(&run.state.x, h, &mut ws.constraints.couplings)
+            });
+        }
         clock.run(Stage::Assemble, || {
             ws.integrator
                 .assemble(&physics, &run.state, &ws.constraints, &scheme)
@@ -126,9 +132,10 @@ pub fn step(
             if pass > 0 {
                 // The couplings of the pairs as they are where the
                 // correction linearises: a chord that slid over an edge
-                // in the first solve has a new closest point and direction.
+                // in the first solve has a new closest point and direction,
+                // and layers that met in it are held.
+                ws.constraints.couplings.clear();
                 if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
-                    ws.constraints.couplings.clear();
                     clock.run(Stage::SharpFeatures, || {
                         sharp.prepare(
                             obstacles,
@@ -136,6 +143,11 @@ pub fn step(
                             &run.state.x,
                             &mut ws.constraints.couplings,
                         )
+                    });
+                }
+                if let Some(layers) = &mut ws.self_collision {
+                    clock.run(Stage::SelfCollision, || {
+                        layers.couple(&run.state.x, h, &mut ws.constraints.couplings)
                     });
                 }
                 clock.run(Stage::Correct, || {

@@ -38,6 +38,13 @@ impl Workspace {
     /// Buffers for `world`, shaped like `state`.
     pub fn new(world: &World, state: &RunState) -> Self {
         let n = world.grid.len();
+        let spring = world
+            .model
+            .stretch
+            .springs
+            .iter()
+            .map(|s| s.k)
+            .fold(0.0, crate::math::Real::max);
         Self {
             integrator: Integrator::new(&world.grid, &world.model, &world.scene.solver),
             constraints: Constraints::free(n),
@@ -53,17 +60,7 @@ impl Workspace {
                 .self_thickness
                 .map(|t| SelfCollision::new(&world.grid, t)),
             apart: ApartScratch::default(),
-            sharp: SharpStage::new(
-                &world.grid,
-                world
-                    .model
-                    .stretch
-                    .springs
-                    .iter()
-                    .map(|s| s.k)
-                    .fold(0.0, crate::math::Real::max),
-                world.obstacles.as_ref(),
-            ),
+            sharp: SharpStage::new(&world.grid, spring, world.obstacles.as_ref()),
         }
     }
 

@@ -91,6 +91,10 @@ pub struct Integrator {
     /// Scratch of the Newton correction: `A1 dv`, and zero corrections.
     product: Vec<Vec3>,
     zero: Vec<Vec3>,
+    /// The couplings' blocks outside `A`'s pattern (`coupling::Remote`),
+    /// and their product with the last solve's `dv`.
+    remote: Vec<coupling::Remote>,
+    remote_dv: Vec<Vec3>,
 }
 
 impl Integrator {
@@ -134,6 +138,8 @@ impl Integrator {
             error_scale: None,
             product: vec![Vec3::zeros(); n],
             zero: vec![Vec3::zeros(); n],
+            remote: Vec::new(),
+            remote_dv: vec![Vec3::zeros(); n],
         }
     }
 
@@ -148,7 +154,7 @@ impl Integrator {
     /// blocked ones. Contact release reads its normal part (method.md §4).
     pub fn constraint_impulse(&self, i: usize, dv: &[Vec3]) -> Vec3 {
         let ad: Vec3 = self.system.a.row(i).map(|(j, block)| block * dv[j]).sum();
-        ad - self.system.b[i]
+        ad + self.remote_dv[i] - self.system.b[i]
     }
 
     /// Stage 1: writes `A` and `b` for a step of `scheme` from `state`
@@ -191,6 +197,7 @@ impl Integrator {
         }
         let x = if predicted { &self.predicted } else { &state.x };
         let system = &mut self.system;
+        self.remote.clear();
         coupling::add(
             &constraints.couplings,
             x,
@@ -198,6 +205,7 @@ impl Integrator {
             scheme.h_eff(),
             &mut system.a,
             &mut system.b,
+            &mut self.remote,
         );
     }
 
@@ -254,7 +262,7 @@ impl Integrator {
             SOLVER_SHARE
         };
         self.options.error_bound = self.error_scale.map(|e| e * share);
-        let problem = problem(&self.system, constraints);
+        let problem = problem(&self.system, &self.remote, constraints);
         let start = mpcg::start(&problem, dv, &mut self.ws);
         if start > self.options.threshold(&problem) {
             self.precond.update(&self.system.a, &constraints.filter);
@@ -264,13 +272,16 @@ impl Integrator {
     /// Stage 3: solves for `dv` from the started solve (no iteration when
     /// the warm start met the tolerance).
     pub fn solve(&mut self, constraints: &Constraints, dv: &mut [Vec3]) -> SolveReport {
-        mpcg::iterate(
-            &problem(&self.system, constraints),
+        let report = mpcg::iterate(
+            &problem(&self.system, &self.remote, constraints),
             self.precond.as_mut(),
             dv,
             &self.options,
             &mut self.ws,
-        )
+        );
+        self.remote_dv.fill(Vec3::zeros());
+        coupling::mul_add(&self.remote, dv, &mut self.remote_dv);
+        report
     }
 }
 
@@ -324,6 +335,7 @@ impl Integrator {
             },
         );
         let system = &mut self.system;
+        self.remote.clear();
         coupling::add(
             &constraints.couplings,
             &end.x,
@@ -331,8 +343,10 @@ impl Integrator {
             scheme.h_eff(),
             &mut system.a,
             &mut system.b,
+            &mut self.remote,
         );
         self.system.a.mul(dv, &mut self.product);
+        coupling::mul_add(&self.remote, dv, &mut self.product);
         let gamma = scheme.gamma;
         let (product, mass, impulse) = (&self.product, physics.mass, &constraints.impulse);
         crate::parallel::for_chunks(&mut self.system.b, |start, b| {
@@ -346,14 +360,24 @@ impl Integrator {
         // hanging-corners; rebuilt, the correction costs less.
         self.precond.update(&self.system.a, &constraints.filter);
         self.options.error_bound = self.error_scale.map(|e| e * CORRECTION_SHARE);
-        mpcg::start(&problem(&self.system, constraints), dv, &mut self.ws);
+        mpcg::start(
+            &problem(&self.system, &self.remote, constraints),
+            dv,
+            &mut self.ws,
+        );
     }
 }
 
-/// The system of `system` under `constraints`.
-fn problem<'a>(system: &'a System, constraints: &'a Constraints) -> Problem<'a> {
+/// The system of `system` and the couplings' `remote` blocks under
+/// `constraints`.
+fn problem<'a>(
+    system: &'a System,
+    remote: &'a [coupling::Remote],
+    constraints: &'a Constraints,
+) -> Problem<'a> {
     Problem {
         a: &system.a,
+        remote,
         b: &system.b,
         filter: &constraints.filter,
         z: &constraints.z,

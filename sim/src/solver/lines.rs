@@ -114,6 +114,7 @@ mod tests {
         }
         let problem = Problem {
             a: &sys.a,
+            remote: &[],
             b: &sys.b,
             filter: &c.filter,
             z: &c.z,

@@ -35,7 +35,7 @@ mod state;
 pub use assemble::{AssemblyInput, System};
 pub use bsr::BlockCsr;
 pub use constraints::{Constraints, Filter};
-pub use coupling::Coupling;
+pub use coupling::{Coupling, Remote};
 pub use integrator::{Integrator, Physics, StepError, update};
 pub use lines::AlternatingLines;
 pub use local_error::local_error;

@@ -200,8 +200,8 @@ impl SharpStage {
                 }
                 let n = cl.gap / g;
                 let mut coupling = Coupling {
-                    particles: [0; 3],
-                    weights: [0.0; 3],
+                    particles: [0; 4],
+                    weights: [0.0; 4],
                     normal: n,
                     target: keep,
                     stiffness: self.stiffness,

@@ -44,6 +44,7 @@
 
 use super::bsr::BlockCsr;
 use super::constraints::Filter;
+use super::coupling::{self, Remote};
 use super::precond::Preconditioner;
 use crate::math::{Real, Vec3};
 use crate::parallel::{self, dot};
@@ -136,11 +137,14 @@ fn filter_in_place(s: &[Filter], v: &mut [Vec3]) {
     });
 }
 
-/// The system `A dv = b` with filters `S` and targets `z`.
+/// The system `(A + R) dv = b` with filters `S` and targets `z`.
 #[derive(Debug, Clone, Copy)]
 pub struct Problem<'a> {
-    /// The symmetric positive definite matrix.
+    /// The symmetric positive definite matrix (what the preconditioner
+    /// sees).
     pub a: &'a BlockCsr,
+    /// Couplings' blocks outside `A`'s pattern, applied matrix-free.
+    pub remote: &'a [Remote],
     /// The right-hand side.
     pub b: &'a [Vec3],
     /// Per-particle filters `S_i`.
@@ -153,7 +157,13 @@ pub struct Problem<'a> {
 /// (keeping its free components as the warm start) and leaves the residual
 /// `S (b - A dv)` in the workspace. Returns its norm.
 pub fn start(problem: &Problem<'_>, dv: &mut [Vec3], ws: &mut MpcgWorkspace) -> Real {
-    let Problem { a, b, filter: s, z } = *problem;
+    let Problem {
+        a,
+        remote,
+        b,
+        filter: s,
+        z,
+    } = *problem;
     ws.resize(b.len());
     parallel::for_chunks(dv, |start, chunk| {
         for (k, d) in chunk.iter_mut().enumerate() {
@@ -162,6 +172,7 @@ pub fn start(problem: &Problem<'_>, dv: &mut [Vec3], ws: &mut MpcgWorkspace) -> 
         }
     });
     a.mul(dv, &mut ws.q);
+    coupling::mul_add(remote, dv, &mut ws.q);
     let q = &ws.q;
     parallel::for_chunks(&mut ws.r, |start, chunk| {
         for (k, r) in chunk.iter_mut().enumerate() {
@@ -180,7 +191,12 @@ pub fn iterate(
     opts: &MpcgOptions,
     ws: &mut MpcgWorkspace,
 ) -> SolveReport {
-    let Problem { a, filter: s, .. } = *problem;
+    let Problem {
+        a,
+        remote,
+        filter: s,
+        ..
+    } = *problem;
     let floor = opts.floor(problem);
     let threshold = opts.tolerance * floor;
     let mut rnorm = dot(&ws.r, &ws.r).sqrt();
@@ -227,6 +243,7 @@ pub fn iterate(
             }
         });
         a.mul(&ws.c, &mut ws.q);
+        coupling::mul_add(remote, &ws.c, &mut ws.q);
         filter_in_place(s, &mut ws.q);
         let curvature = dot(&ws.c, &ws.q);
         if curvature <= 0.0 || !curvature.is_finite() {

@@ -69,6 +69,7 @@ fn converges_on_random_spd_systems_and_meets_tolerance() {
             let rep = solve(
                 &Problem {
                     a: &a,
+                    remote: &[],
                     b: &b,
                     filter: &s,
                     z: &z,
@@ -131,6 +132,7 @@ fn constrained_components_equal_targets_and_filtered_residual_meets_tolerance() 
     let rep = solve(
         &Problem {
             a: &a,
+            remote: &[],
             b: &b,
             filter: &s,
             z: &z,
@@ -205,6 +207,7 @@ fn reports_breakdown_on_indefinite_matrix_and_max_iterations_at_cap() {
     let rep = solve(
         &Problem {
             a: &a,
+            remote: &[],
             b: &b2,
             filter: &s,
             z: &z,
@@ -233,6 +236,7 @@ fn reports_breakdown_on_indefinite_matrix_and_max_iterations_at_cap() {
     let rep = solve(
         &Problem {
             a: &a,
+            remote: &[],
             b: &b,
             filter: &s,
             z: &z,
@@ -268,6 +272,7 @@ fn the_error_bound_stops_with_the_error_within_it() {
         let z = vec![Vec3::zeros(); n];
         let problem = Problem {
             a: &a,
+            remote: &[],
             b: &b,
             filter: &s,
             z: &z,

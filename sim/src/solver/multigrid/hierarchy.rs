@@ -250,6 +250,7 @@ mod tests {
         let rep = solve(
             &Problem {
                 a: &sys.a,
+                remote: &[],
                 b: &sys.b,
                 filter: &c.filter,
                 z: &c.z,
