@@ -230,13 +230,14 @@ fn cloth_dropped_onto_a_thin_rod_hangs_without_crossing() {
 }
 
 /// The normal-cone culling skips only patches that cannot pass through
-/// themselves: on the shipped sphere drape, which has no self-collision
-/// and whose folds pass through each other, the culled count (each
+/// themselves: on the shipped sphere drape with self-collision turned
+/// off, whose folds pass through each other, the culled count (each
 /// frame's statistic with self-collision on) equals the full count at
 /// every frame.
 #[test]
 fn culled_crossing_count_equals_the_full_count_on_a_drape_that_crosses_itself() {
-    let scene = common::example_scene("sphere-drape-30.json");
+    let mut scene = common::example_scene("sphere-drape-30.json");
+    scene.cloth.self_thickness = None;
     let grid = Grid::new(&scene.cloth, scene.material.density);
     let mut mesh = ClothMesh::new(&grid);
     let mut sim = Simulation::new(&scene).expect("scene builds");
@@ -272,11 +273,12 @@ fn thickness_defaults_from_the_spacing_and_bad_values_are_refused() {
         .expect("parses")
     };
     let limits = Limits::default();
-    let off = spec("").validate(&limits).expect("valid");
-    assert_eq!(off.cloth.self_thickness, None);
-    let on = spec(r#", "self_collision": true"#)
+    let off = spec(r#", "self_collision": false"#)
         .validate(&limits)
         .expect("valid");
+    assert_eq!(off.cloth.self_thickness, None);
+    // On by default.
+    let on = spec("").validate(&limits).expect("valid");
     let t = on.cloth.self_thickness.expect("on");
     assert!((t - 0.1 * 0.05).abs() < 1e-15, "{t}");
     let given = spec(r#", "self_collision": true, "thickness": 0.01"#)

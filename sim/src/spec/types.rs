@@ -160,10 +160,10 @@ pub struct ClothSpec {
     /// a tenth of the finer grid spacing, at most a quarter of it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thickness: Option<f64>,
-    /// Whether the cloth is kept from passing through itself. Off by
-    /// default for now: the response still stretches some scenes' cloth
+    /// Whether the cloth is kept from passing through itself (default:
+    /// on). Patches that cannot meet themselves cost a refit and no pair
     /// (ARCHITECTURE.md, "Self-collision").
-    #[serde(default)]
+    #[serde(default = "yes")]
     pub self_collision: bool,
 }
 

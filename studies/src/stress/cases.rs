@@ -88,7 +88,7 @@ fn cloth(n: u32, origin: [f64; 3], pinned: Vec<PinEntry>) -> ClothSpec {
         v: None,
         pinned,
         thickness: None,
-        self_collision: false,
+        self_collision: true,
     }
 }
 
@@ -331,8 +331,7 @@ fn fast_fold(n: u32) -> Spec {
             ..Motion::default()
         }),
     });
-    let mut c = cloth(n, [-0.5, -0.5, 0.02], vec![edge]);
-    c.self_collision = true;
+    let c = cloth(n, [-0.5, -0.5, 0.02], vec![edge]);
     scene("fast-fold", c, vec![floor(0.0)], DT, 0.8)
 }
 
@@ -355,7 +354,6 @@ fn tight_twist(n: u32) -> Spec {
         grid: [n, m],
         size: [1.0, 0.2],
         origin: [-0.5, -0.1, 0.5],
-        self_collision: true,
         ..cloth(n, [0.0; 3], pins)
     };
     let mut s = scene("tight-twist", strip, vec![], DT, 1.0);
