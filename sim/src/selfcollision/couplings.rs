@@ -16,7 +16,7 @@
 //! share the work with it. Corrected only after the solve, the whole
 //! overlap was taken from the particles of the pair while their
 //! neighbours stayed behind: cloth wound tight on a spinning sphere
-//! stretched 5.6–11 % (docs/benchmarks.md, section 1f).
+//! stretched 4–6 % (docs/benchmarks.md, section 1l).
 //!
 //! Grid neighbours are left to the cloth's own shear and bending forces,
 //! as in the response.
