@@ -144,9 +144,12 @@ mod tests {
                     upper.insert(p);
                 }
             }
-            let cols: Vec<usize> = c.particles.iter().map(|&p| p as usize % nu).collect();
-            let (lo, hi) = (cols.iter().min(), cols.iter().max());
-            assert!(hi.unwrap() - lo.unwrap() > 1, "no grid neighbours");
+            let cols = c.particles.map(|p| p as usize % nu);
+            let (lo, hi) = (
+                cols.iter().fold(nu, |a, &b| a.min(b)),
+                cols.iter().fold(0, |a, &b| a.max(b)),
+            );
+            assert!(hi - lo > 1, "no grid neighbours");
         }
         // The upper layer's vertices not next to the fold (column `half`,
         // over column `half - 1`) are all held.
