@@ -58,9 +58,14 @@ struct Item {
 }
 
 impl Contours {
-    /// The boundaries of `bvh`'s nodes over `triangles`, with `edge` the
-    /// index of the mesh edge between two vertices.
-    pub fn build(bvh: &Bvh, triangles: &[[u32; 3]], edge: impl Fn(u32, u32) -> u32) -> Self {
+    /// The boundaries of `bvh`'s nodes over `triangles`, whose edges are
+    /// `mesh_edges` (sorted, smaller vertex first); a node whose boundary
+    /// is not one closed loop gets none.
+    pub fn build(bvh: &Bvh, triangles: &[[u32; 3]], mesh_edges: &[[u32; 2]]) -> Self {
+        let edge = |a: u32, b: u32| {
+            let key = [a.min(b), a.max(b)];
+            mesh_edges.partition_point(|e| *e < key) as u32
+        };
         let mut sets: Vec<Vec<u32>> = Vec::new();
         bvh.fold_up(
             &mut sets,
@@ -81,22 +86,11 @@ impl Contours {
         for set in &sets {
             let start = out.edges.len() as u32;
             out.edges.extend_from_slice(set);
+            let looped = !set.is_empty() && one_loop(set, mesh_edges);
             out.ranges
-                .push(Some((start, out.edges.len() as u32)).filter(|_| !set.is_empty()));
+                .push(Some((start, out.edges.len() as u32)).filter(|_| looped));
         }
         out
-    }
-
-    /// Marks the nodes whose boundary is not one closed loop, given the
-    /// mesh's edges.
-    pub fn keep_loops(&mut self, mesh_edges: &[[u32; 2]]) {
-        for r in &mut self.ranges {
-            if let Some((s, e)) = *r
-                && !one_loop(&self.edges[s as usize..e as usize], mesh_edges)
-            {
-                *r = None;
-            }
-        }
     }
 
     /// Whether node `node`'s boundary, projected along `axis` (unit), is

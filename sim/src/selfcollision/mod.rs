@@ -63,8 +63,6 @@ pub struct SelfCollision {
     scratch: response::Scratch,
     layers: couplings::Layers,
     thickness: Real,
-    /// Lumped masses, for the couplings' stiffness.
-    mass: Vec<Real>,
     u: Vec<Vec3>,
     u0: Vec<Vec3>,
 }
@@ -76,7 +74,6 @@ impl SelfCollision {
             mesh: ClothMesh::new(grid),
             scratch: response::Scratch::default(),
             layers: couplings::Layers::default(),
-            mass: grid.mass.clone(),
             thickness,
             u: Vec::new(),
             u0: Vec::new(),
@@ -89,10 +86,11 @@ impl SelfCollision {
     }
 
     /// Before a step of `h`: appends a coupling for every pair of layers
-    /// closer than the thickness at `x` (`couplings`).
-    pub fn couple(&mut self, x: &[Vec3], h: Real, out: &mut Vec<Coupling>) {
+    /// closer than the thickness at `x`, of lumped masses `mass`
+    /// (`couplings`).
+    pub fn couple(&mut self, x: &[Vec3], mass: &[Real], h: Real, out: &mut Vec<Coupling>) {
         self.layers
-            .couple(&mut self.mesh, x, self.thickness, &self.mass, h, out);
+            .couple(&mut self.mesh, x, self.thickness, mass, h, out);
     }
 
     /// Corrects one step's motion so the cloth does not pass through

@@ -114,12 +114,7 @@ impl ClothMesh {
             part.sort_unstable_by_key(|&t| (key(t) >= cut, t));
             part.partition_point(|&t| key(t) < cut)
         });
-        let edge_index = |a: u32, b: u32| {
-            let key = [a.min(b), a.max(b)];
-            edges.partition_point(|e| *e < key) as u32
-        };
-        let mut contours = Contours::build(&tri_bvh, &triangles, edge_index);
-        contours.keep_loops(&edges);
+        let contours = Contours::build(&tri_bvh, &triangles, &edges);
         Self {
             nu: grid.nu,
             tri_bvh,

@@ -96,21 +96,7 @@ pub fn step(
                 )
             });
         }
-        if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
-            clock.run(Stage::SharpFeatures, || {
-                sharp.prepare(
-                    obstacles,
-                    frame.time,
-                    &run.state.x,
-                    &mut ws.constraints.couplings,
-                )
-            });
-        }
-        if let Some(layers) = &mut ws.self_collision {
-            clock.run(Stage::SelfCollision, || {
-                layers.couple(&run.state.x, h, &mut ws.constraints.couplings)
-            });
-        }
+        couple(world, ws, &mut clock, &frame, frame.time, &run.state.x);
         clock.run(Stage::Assemble, || {
             ws.integrator
                 .assemble(&physics, &run.state, &ws.constraints, &scheme)
@@ -135,21 +121,7 @@ pub fn step(
                 // in the first solve has a new closest point and direction,
                 // and layers that met in it are held.
                 ws.constraints.couplings.clear();
-                if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
-                    clock.run(Stage::SharpFeatures, || {
-                        sharp.prepare(
-                            obstacles,
-                            frame.time + h,
-                            &run.state.x,
-                            &mut ws.constraints.couplings,
-                        )
-                    });
-                }
-                if let Some(layers) = &mut ws.self_collision {
-                    clock.run(Stage::SelfCollision, || {
-                        layers.couple(&run.state.x, h, &mut ws.constraints.couplings)
-                    });
-                }
+                couple(world, ws, &mut clock, &frame, frame.time + h, &run.state.x);
                 clock.run(Stage::Correct, || {
                     ws.integrator.correct(
                         &physics,
@@ -286,4 +258,27 @@ fn update(
             quantity: e.quantity,
         }
     })
+}
+
+/// The couplings stage: springs for cloth near obstacles' sharp features
+/// (their corners placed at `time`) and for layers of cloth closer than
+/// the thickness, the cloth at `x`, appended to the step's constraints.
+fn couple(
+    world: &World,
+    ws: &mut Workspace,
+    clock: &mut StageClock,
+    frame: &StepFrame<'_>,
+    time: Real,
+    x: &[Vec3],
+) {
+    if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
+        clock.run(Stage::SharpFeatures, || {
+            sharp.prepare(obstacles, time, x, &mut ws.constraints.couplings)
+        });
+    }
+    if let Some(layers) = &mut ws.self_collision {
+        clock.run(Stage::SelfCollision, || {
+            layers.couple(x, frame.mass, frame.h, &mut ws.constraints.couplings)
+        });
+    }
 }

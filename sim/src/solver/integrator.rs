@@ -345,8 +345,7 @@ impl Integrator {
             &mut system.b,
             &mut self.remote,
         );
-        self.system.a.mul(dv, &mut self.product);
-        coupling::mul_add(&self.remote, dv, &mut self.product);
+        problem(&self.system, &self.remote, constraints).apply(dv, &mut self.product);
         let gamma = scheme.gamma;
         let (product, mass, impulse) = (&self.product, physics.mass, &constraints.impulse);
         crate::parallel::for_chunks(&mut self.system.b, |start, b| {

@@ -153,16 +153,20 @@ pub struct Problem<'a> {
     pub z: &'a [Vec3],
 }
 
+impl Problem<'_> {
+    /// `out = (A + R) v`: the operator the solve inverts.
+    pub fn apply(&self, v: &[Vec3], out: &mut [Vec3]) {
+        self.a.mul(v, out);
+        coupling::mul_add(self.remote, v, out);
+    }
+}
+
 /// Starts a solve: puts `dv`'s constrained components at their targets
 /// (keeping its free components as the warm start) and leaves the residual
 /// `S (b - A dv)` in the workspace. Returns its norm.
 pub fn start(problem: &Problem<'_>, dv: &mut [Vec3], ws: &mut MpcgWorkspace) -> Real {
     let Problem {
-        a,
-        remote,
-        b,
-        filter: s,
-        z,
+        b, filter: s, z, ..
     } = *problem;
     ws.resize(b.len());
     parallel::for_chunks(dv, |start, chunk| {
@@ -171,8 +175,7 @@ pub fn start(problem: &Problem<'_>, dv: &mut [Vec3], ws: &mut MpcgWorkspace) -> 
             *d = s[i].apply(d) + z[i] - s[i].apply(&z[i]);
         }
     });
-    a.mul(dv, &mut ws.q);
-    coupling::mul_add(remote, dv, &mut ws.q);
+    problem.apply(dv, &mut ws.q);
     let q = &ws.q;
     parallel::for_chunks(&mut ws.r, |start, chunk| {
         for (k, r) in chunk.iter_mut().enumerate() {
@@ -191,12 +194,7 @@ pub fn iterate(
     opts: &MpcgOptions,
     ws: &mut MpcgWorkspace,
 ) -> SolveReport {
-    let Problem {
-        a,
-        remote,
-        filter: s,
-        ..
-    } = *problem;
+    let Problem { a, filter: s, .. } = *problem;
     let floor = opts.floor(problem);
     let threshold = opts.tolerance * floor;
     let mut rnorm = dot(&ws.r, &ws.r).sqrt();
@@ -242,8 +240,7 @@ pub fn iterate(
                 *c = sv[start + k] + *c * beta;
             }
         });
-        a.mul(&ws.c, &mut ws.q);
-        coupling::mul_add(remote, &ws.c, &mut ws.q);
+        problem.apply(&ws.c, &mut ws.q);
         filter_in_place(s, &mut ws.q);
         let curvature = dot(&ws.c, &ws.q);
         if curvature <= 0.0 || !curvature.is_finite() {
