@@ -111,6 +111,20 @@ pub fn for_rows<T: Send>(
     }
 }
 
+/// Runs `a` and `b`, side by side when the pool has threads to spare:
+/// for two stages of a step that read nothing the other writes, each
+/// sequential inside, so their results do not depend on it.
+pub fn join<A: Send, B: Send>(
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    if rayon::current_num_threads() > 1 {
+        rayon::join(a, b)
+    } else {
+        (a(), b())
+    }
+}
+
 /// Whether work on `n` elements is spread over threads.
 pub fn is_parallel(n: usize) -> bool {
     spread(n, PARALLEL_MIN)

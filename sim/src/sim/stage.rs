@@ -138,6 +138,11 @@ impl StageClock {
         out
     }
 
+    /// Adds the times of a clock that ran stages beside this one.
+    pub fn merge(&mut self, other: &StageClock) {
+        self.times.add(&other.times);
+    }
+
     /// The times so far.
     pub fn times(&self) -> StageTimes {
         self.times

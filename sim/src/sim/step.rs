@@ -20,14 +20,15 @@
 
 use super::apart::ApartStage;
 use super::error::SimError;
+use super::sharp::SharpStage;
 use super::stage::{Stage, StageClock, StageTimes};
 use super::state::RunState;
 use super::workspace::Workspace;
 use super::world::World;
 use crate::collision::{CollisionStage, StepFrame, Verdict};
 use crate::math::{Real, Vec3};
-use crate::selfcollision::SelfReport;
-use crate::solver::{self, ClothState, Scheme, SolveReport};
+use crate::selfcollision::{SelfCollision, SelfReport};
+use crate::solver::{self, ClothState, Coupling, Scheme, SolveReport};
 use crate::spec::IntegratorKind;
 
 /// Redos of one step's solve when particles cross a surface mid-step;
@@ -96,10 +97,41 @@ pub fn step(
                 )
             });
         }
-        couple(world, ws, &mut clock, &frame, frame.time, &run.state.x);
+        // The couplings are gathered while the forces are assembled (on
+        // the second core, when there is one): neither reads the other.
+        let mut beside = StageClock::default();
+        let Workspace {
+            integrator,
+            constraints,
+            sharp,
+            self_collision,
+            ..
+        } = &mut *ws;
+        let (y, impulse) = (&constraints.y, &constraints.impulse);
+        let couplings = &mut constraints.couplings;
+        let (state, pair) = (&run.state, (&mut *sharp, &mut *self_collision));
+        crate::parallel::join(
+            || {
+                couple(
+                    world,
+                    pair,
+                    couplings,
+                    &mut beside,
+                    &frame,
+                    frame.time,
+                    &state.x,
+                )
+            },
+            || {
+                clock.run(Stage::Assemble, || {
+                    integrator.assemble_forces(&physics, state, y, impulse, &scheme)
+                })
+            },
+        );
+        clock.merge(&beside);
         clock.run(Stage::Assemble, || {
             ws.integrator
-                .assemble(&physics, &run.state, &ws.constraints, &scheme)
+                .add_couplings(&ws.constraints.couplings, &run.state, &scheme)
         });
         clock.run(Stage::Precondition, || {
             ws.integrator.precondition(
@@ -121,7 +153,15 @@ pub fn step(
                 // in the first solve has a new closest point and direction,
                 // and layers that met in it are held.
                 ws.constraints.couplings.clear();
-                couple(world, ws, &mut clock, &frame, frame.time + h, &run.state.x);
+                couple(
+                    world,
+                    (&mut ws.sharp, &mut ws.self_collision),
+                    &mut ws.constraints.couplings,
+                    &mut clock,
+                    &frame,
+                    frame.time + h,
+                    &run.state.x,
+                );
                 clock.run(Stage::Correct, || {
                     ws.integrator.correct(
                         &physics,
@@ -265,20 +305,21 @@ fn update(
 /// the thickness, the cloth at `x`, appended to the step's constraints.
 fn couple(
     world: &World,
-    ws: &mut Workspace,
+    (sharp, layers): (&mut Option<SharpStage>, &mut Option<SelfCollision>),
+    couplings: &mut Vec<Coupling>,
     clock: &mut StageClock,
     frame: &StepFrame<'_>,
     time: Real,
     x: &[Vec3],
 ) {
-    if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
+    if let (Some(sharp), Some(obstacles)) = (sharp, &world.obstacles) {
         clock.run(Stage::SharpFeatures, || {
-            sharp.prepare(obstacles, time, x, &mut ws.constraints.couplings)
+            sharp.prepare(obstacles, time, x, couplings)
         });
     }
-    if let Some(layers) = &mut ws.self_collision {
+    if let Some(layers) = layers {
         clock.run(Stage::SelfCollision, || {
-            layers.couple(x, frame.mass, frame.h, &mut ws.constraints.couplings)
+            layers.couple(x, frame.mass, frame.h, couplings)
         });
     }
 }

@@ -18,7 +18,7 @@
 
 use super::assemble::{AssemblyInput, System};
 use super::constraints::{Constraints, Filter};
-use super::coupling;
+use super::coupling::{self, Coupling};
 use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
 use super::multigrid::Multigrid;
@@ -168,6 +168,21 @@ impl Integrator {
         constraints: &Constraints,
         scheme: &Scheme<'_>,
     ) {
+        self.assemble_forces(physics, state, &constraints.y, &constraints.impulse, scheme);
+        self.add_couplings(&constraints.couplings, state, scheme);
+    }
+
+    /// Stage 1 without the couplings: the cloth's forces and Jacobians,
+    /// the corrections `y` and the `impulse`s. It reads no coupling, so
+    /// the step gathers them while it runs.
+    pub fn assemble_forces(
+        &mut self,
+        physics: &Physics<'_>,
+        state: &ClothState,
+        y: &[Vec3],
+        impulse: &[Vec3],
+        scheme: &Scheme<'_>,
+    ) {
         let predicted = scheme.is_two_step();
         if predicted {
             let h = scheme.h_eff();
@@ -185,21 +200,35 @@ impl Integrator {
                 x: if predicted { &self.predicted } else { &state.x },
                 predicted,
                 v: &state.v,
-                y: &constraints.y,
+                y,
                 mass: physics.mass,
                 gravity: physics.gravity,
                 scheme: *scheme,
             },
         );
         let gamma = scheme.gamma;
-        for (b, j) in self.system.b.iter_mut().zip(&constraints.impulse) {
+        for (b, j) in self.system.b.iter_mut().zip(impulse) {
             *b += j * gamma;
         }
-        let x = if predicted { &self.predicted } else { &state.x };
+    }
+
+    /// Stage 1's end: the `couplings` into `A` and `b`, linearised where
+    /// [`Self::assemble_forces`] linearised the forces.
+    pub fn add_couplings(
+        &mut self,
+        couplings: &[Coupling],
+        state: &ClothState,
+        scheme: &Scheme<'_>,
+    ) {
+        let x = if scheme.is_two_step() {
+            &self.predicted
+        } else {
+            &state.x
+        };
         let system = &mut self.system;
         self.remote.clear();
         coupling::add(
-            &constraints.couplings,
+            couplings,
             x,
             &system.w,
             scheme.h_eff(),
