@@ -232,8 +232,8 @@ fn cloth_dropped_onto_a_thin_rod_hangs_without_crossing() {
 /// The normal-cone culling skips only patches that cannot pass through
 /// themselves: on the shipped sphere drape with self-collision turned
 /// off, whose folds pass through each other, the culled count (each
-/// frame's statistic with self-collision on) equals the full count at
-/// every frame.
+/// frame's statistic) equals the full count at every frame, and the
+/// frame's `self_crossings` reports it with self-collision off too.
 #[test]
 fn culled_crossing_count_equals_the_full_count_on_a_drape_that_crosses_itself() {
     let mut scene = common::example_scene("sphere-drape-30.json");
@@ -252,6 +252,7 @@ fn culled_crossing_count_equals_the_full_count_on_a_drape_that_crosses_itself() 
             "frame {}",
             f.frame
         );
+        assert_eq!(f.self_crossings, full, "frame {}", f.frame);
         crossed_frames += usize::from(full > 0);
     }
     assert!(

@@ -199,11 +199,12 @@ impl Simulation {
         self.run.state.time = (self.run.frame + 1) as Real * self.world.scene.frame_dt();
         self.run.frame += 1;
         let counters = self.ws.collision.take_counters();
-        let self_crossings = self
-            .ws
-            .self_collision
-            .as_mut()
-            .map_or(0, |sc| sc.crossings(&self.run.state.x));
+        let x = &self.run.state.x;
+        let self_crossings = match (&mut self.ws.self_collision, &mut self.ws.crossings) {
+            (Some(sc), _) => sc.crossings(x),
+            (None, Some(mesh)) => crate::selfcollision::count_crossings_culled(mesh, x),
+            (None, None) => 0,
+        };
         let obstacle_crossings = match (&mut self.ws.sharp, &self.world.obstacles) {
             (Some(sharp), Some(obstacles)) => {
                 sharp.crossings(obstacles, self.run.state.time, &self.run.state.x)

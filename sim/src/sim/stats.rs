@@ -73,8 +73,8 @@ pub struct FrameStats {
     #[serde(default)]
     pub self_collision_seconds: f64,
     /// Cloth edges through cloth triangles at the frame (the exact count
-    /// of `selfcollision::count_crossings`; 0 with self-collision off,
-    /// where it is not counted).
+    /// of `selfcollision::count_crossings`), counted whether or not
+    /// self-collision is on.
     #[serde(default)]
     pub self_crossings: usize,
     /// Obstacle edges through cloth triangles at the frame (the sharp

@@ -6,7 +6,7 @@ use super::sharp::SharpStage;
 use super::state::RunState;
 use super::world::World;
 use crate::collision::CollisionScratch;
-use crate::selfcollision::SelfCollision;
+use crate::selfcollision::{ClothMesh, SelfCollision};
 use crate::solver::{ClothState, Constraints, Integrator};
 
 /// The buffers of a simulation.
@@ -28,6 +28,9 @@ pub struct Workspace {
     pub moved: Vec<crate::math::Vec3>,
     /// The cloth's self-collision (`None` when the scene turns it off).
     pub self_collision: Option<SelfCollision>,
+    /// The cloth's mesh for the crossing count of every frame when
+    /// self-collision is off (with it on, its own mesh counts).
+    pub crossings: Option<ClothMesh>,
     /// The self-collision stage's buffers.
     pub apart: ApartScratch,
     /// The sharp-feature stage (`None` when no obstacle has features).
@@ -59,6 +62,12 @@ impl Workspace {
                 .cloth
                 .self_thickness
                 .map(|t| SelfCollision::new(&world.grid, t)),
+            crossings: world
+                .scene
+                .cloth
+                .self_thickness
+                .is_none()
+                .then(|| ClothMesh::new(&world.grid)),
             apart: ApartScratch::default(),
             sharp: SharpStage::new(&world.grid, spring, world.obstacles.as_ref()),
         }
