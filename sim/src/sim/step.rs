@@ -4,8 +4,8 @@
 //! | --- | --- |
 //! | constrain | pins -> filters `S`, targets `z`, corrections `y` |
 //! | collision prepare | contacts and predicted crossings -> `S`, `z`, `y`, friction impulses |
-//! | couplings | pairs near obstacles' sharp features, and layers of cloth within the thickness -> springs in `A`, `b` |
-//! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]) |
+//! | couplings | pairs near obstacles' sharp features, and layers of cloth within the thickness -> springs (beside the assembly of forces, which reads none of them) |
+//! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]), then the springs into `A`, `b` |
 //! | precondition | the warm start's residual; the preconditioner from `A` unless that already converged |
 //! | solve | the modified PCG (filtered residual) |
 //! | update | `v += dv`, `x += p + h' v + y`, finiteness |
