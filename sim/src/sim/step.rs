@@ -109,12 +109,12 @@ pub fn step(
         } = &mut *ws;
         let (y, impulse) = (&constraints.y, &constraints.impulse);
         let couplings = &mut constraints.couplings;
-        let (state, pair) = (&run.state, (&mut *sharp, &mut *self_collision));
+        let state = &run.state;
         crate::parallel::join(
             || {
                 couple(
                     world,
-                    pair,
+                    (sharp, self_collision),
                     couplings,
                     &mut beside,
                     &frame,
