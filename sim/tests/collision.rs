@@ -85,19 +85,9 @@ fn sphere_distance(p: &Vec3, center: Vec3, radius: Real) -> Real {
 #[test]
 fn sphere_drape_30_rests_on_the_sphere_and_drapes_below_the_equator() {
     let scene = example_scene("sphere-drape-30.json");
-    let (_, frames, stats) = run_checked_with_stats(&scene, Real::INFINITY);
-    // No contact chatter while it lies still: over the last second (60
-    // frames) a contact is made and one released about once a frame each
-    // (158 changes; 432 before the contact state had hysteresis).
-    let last_second = &stats[stats.len() - 60..];
-    let changes: usize = last_second
-        .iter()
-        .map(|s| s.new_contacts + s.released_contacts)
-        .sum();
-    assert!(
-        changes <= 3 * 60,
-        "{changes} contacts made or released in the last second"
-    );
+    // (At 2 s it is still settling; contact chatter at rest is
+    // `a_drape_on_a_sphere_comes_to_rest_and_stays`'s.)
+    let (_, frames) = run_checked(&scene, Real::INFINITY);
     let last = frames.last().expect("frames");
     // The particle nearest the pole's vertical: within 1 cm of the sphere,
     // so no floating gap; the offset is a few mm.
@@ -109,6 +99,46 @@ fn sphere_drape_30_rests_on_the_sphere_and_drapes_below_the_equator() {
     assert!(gap > 0.0 && gap < 0.01, "gap above the pole {gap}");
     // Below the equator (z = 0) by a good margin.
     assert!(common::lowest_z(last) < -0.2);
+}
+
+/// Static friction holds a drape: sphere-drape-30 run on to 5 s comes to
+/// rest on the sphere and stays there. Every particle on the cap carries
+/// a steady tangential load well inside its friction cone (μ = 0.4; the
+/// drape's imbalance is a few percent of its weight), so nothing may
+/// creep: the particle at the middle of the cloth moves less than 1 mm
+/// from 2 s to 5 s, in the last second no frame makes or releases more
+/// than 2 contacts (the speed issue's settled drape), and the kinetic
+/// energy falls below 2 % of its value at 1 s (0.8 % here). While sliding
+/// contacts kept the load that had broken them loose in the landing, they
+/// never stuck again, and the drape crept off the sphere: 16 mm in those
+/// 3 s, 65 mm by 8 s, faster and faster (docs/benchmarks.md 1m).
+#[test]
+fn a_drape_on_a_sphere_comes_to_rest_and_stays() {
+    let mut spec = common::example_spec("sphere-drape-30.json");
+    spec.duration = 5.0;
+    let scene = spec.validate(&Default::default()).expect("valid");
+    let (_, frames, stats) = run_checked_with_stats(&scene, Real::INFINITY);
+    let middle = 15 + 15 * 30;
+    let at = |t: Real| &frames[(t * 60.0).round() as usize][middle];
+    let crept = (at(5.0) - at(2.0)).norm();
+    assert!(crept < 1e-3, "the middle crept {:.2} mm", crept * 1e3);
+    for s in &stats[stats.len() - 60..] {
+        assert!(
+            s.new_contacts <= 2 && s.released_contacts <= 2,
+            "frame {}: {} contacts made, {} released",
+            s.frame,
+            s.new_contacts,
+            s.released_contacts
+        );
+    }
+    let (first, last) = (&stats[1..61], &stats[stats.len() - 60..]);
+    let energy = |s: &[FrameStats]| s.last().map_or(0.0, |f| f.kinetic_energy);
+    assert!(
+        energy(last) < 0.02 * energy(first),
+        "kinetic energy {:e} J at 5 s against {:e} J at 1 s",
+        energy(last),
+        energy(first)
+    );
 }
 
 #[test]

@@ -39,11 +39,12 @@ pub struct Contact {
     /// Normal force of the last solve, N (0 for a new contact).
     pub normal_force: Real,
     /// The tangential force static friction failed to hold when the
-    /// contact last broke loose, N (0 if it never did): a sliding contact
-    /// sticks again only when friction could hold that load as well as
-    /// stop the slide (the hysteresis that keeps a particle whose load
-    /// exceeds the cone from flipping between sticking and sliding every
-    /// step while the cloth lies still).
+    /// contact last broke loose, N, fading while it slides
+    /// (`collision::stage`'s `LOAD_MEMORY`; 0 if it never broke loose): a
+    /// sliding contact sticks again only when friction could hold that
+    /// load as well as stop the slide (the hysteresis that keeps a
+    /// particle whose load exceeds the cone from flipping between
+    /// sticking and sliding every step).
     #[serde(default)]
     pub load: Real,
 }
