@@ -25,6 +25,8 @@ pub struct CollisionCounters {
 pub struct CollisionScratch {
     /// This step's geometry of each contact (parallel to the contact set).
     pub(super) plans: Vec<Plan>,
+    /// Which contacts are leaving their surface (parallel to the plans).
+    pub(super) leaving: Vec<bool>,
     /// This step's poses (start, end) of each obstacle...
     pub(super) poses: Vec<(Pose, Pose)>,
     /// ...and the box each obstacle sweeps over the step.
