@@ -121,6 +121,22 @@ pub enum ArmHessian {
     },
 }
 
+/// Rayleigh damping of one element's angle: its force on the arms and
+/// the derivatives the assembly needs.
+#[derive(Debug, Clone, Copy)]
+pub struct ArmDamping {
+    /// `-f` on the arms (the sign of an energy gradient).
+    pub grad: [Vec3; 2],
+    /// `-∂f/∂ė = c j jᵀ`.
+    pub c: Real,
+    /// The arm gradient of that rank-one term: the law's own
+    /// [`ArmHessian::Rank1`] `j`, so the solver assembles both as one.
+    pub j: [Vec3; 2],
+    /// `-∂f/∂e` in [`JacobianMode::Exact`] (the solver omits it, as it
+    /// does for the springs' damping).
+    pub dgde: Option<[[Mat3; 2]; 2]>,
+}
+
 /// An energy of the angle between two arms.
 pub trait AngleLaw {
     /// A short name.
@@ -131,6 +147,16 @@ pub trait AngleLaw {
     /// for is computed (PERF: the solver's assembly never pays for the
     /// exact Hessian).
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives;
+    /// Damping `k` (N·m·s per radian², or N·s/m per area) of the angle's
+    /// rate when the arms move at `rate`; `None` for a law without it.
+    fn damping(
+        _g: &AngleGeom,
+        _k: Real,
+        _rate: [Vec3; 2],
+        _mode: JacobianMode,
+    ) -> Option<ArmDamping> {
+        None
+    }
 }
 
 /// Chain rule through `f`: the gradient `E_f ∂f`.
@@ -168,6 +194,10 @@ pub struct AngleElement {
 pub struct AngleForce<L> {
     /// The elements.
     pub elements: Vec<AngleElement>,
+    /// Stiffness-proportional (Rayleigh) damping β, seconds: an element
+    /// of stiffness `C_1` resists its angle's rate with `β C_1` (only for
+    /// laws that define [`AngleLaw::damping`]).
+    pub damping: Real,
     law: std::marker::PhantomData<L>,
 }
 
@@ -182,7 +212,16 @@ impl<L> AngleForce<L> {
     pub fn new(elements: Vec<AngleElement>) -> Self {
         Self {
             elements,
+            damping: 0.0,
             law: std::marker::PhantomData,
+        }
+    }
+
+    /// The same elements with Rayleigh damping `beta` (seconds).
+    pub fn with_damping(self, beta: Real) -> Self {
+        Self {
+            damping: beta,
+            ..self
         }
     }
 }
@@ -218,7 +257,7 @@ impl<L: AngleLaw> Force for AngleForce<L> {
         &self,
         e: usize,
         x: &[Vec3],
-        _v: &[Vec3],
+        v: &[Vec3],
         mode: JacobianMode,
         sink: &mut S,
     ) {
@@ -228,9 +267,35 @@ impl<L: AngleLaw> Force for AngleForce<L> {
             return; // a collapsed arm has no angle; its springs resist it
         };
         let d = L::eval(&g, el.c1, el.c0, mode);
-        match d.hess {
-            ArmHessian::Full(h) => sink.add_arms(e, el.idx, d.grad, &h),
-            ArmHessian::Rank1 { s, j } => sink.add_arms_rank1(e, el.idx, d.grad, s, j),
+        let damping = if self.damping > 0.0 {
+            L::damping(&g, self.damping * el.c1, [v[a] - v[b], v[c] - v[b]], mode)
+        } else {
+            None
+        };
+        match (d.hess, damping) {
+            (ArmHessian::Full(h), None) => sink.add_arms(e, el.idx, d.grad, &h),
+            (ArmHessian::Rank1 { s, j }, None) => sink.add_arms_rank1(e, el.idx, d.grad, s, 0.0, j),
+            (ArmHessian::Rank1 { s, j }, Some(dm)) => {
+                debug_assert_eq!(j, dm.j, "the damping's j is the law's");
+                let grad = [d.grad[0] + dm.grad[0], d.grad[1] + dm.grad[1]];
+                sink.add_arms_rank1(e, el.idx, grad, s, dm.c, j);
+            }
+            (ArmHessian::Full(h), Some(dm)) => {
+                // The exact path (tests): every block through the generic sink.
+                let grad = [d.grad[0] + dm.grad[0], d.grad[1] + dm.grad[1]];
+                let mut hx = h;
+                if let Some(dh) = dm.dgde {
+                    for (row, drow) in hx.iter_mut().zip(dh) {
+                        for (block, dblock) in row.iter_mut().zip(drow) {
+                            *block += dblock;
+                        }
+                    }
+                }
+                let (f, dfdx) = super::arm_blocks(grad, &hx);
+                let cj = super::force::rank1_blocks(dm.c, dm.j);
+                let dfdv = super::arm_blocks([Vec3::zeros(); 2], &cj).1;
+                sink.add(e, &el.idx, &f, Some(&dfdx), Some(&dfdv));
+            }
         }
     }
 }

@@ -50,7 +50,9 @@ pub trait Sink {
     }
 
     /// [`Sink::add_arms`] with the rank-one arm Hessian `s j jᵀ`
-    /// (`j = (j1, j2)`). A sink may override it to use the structure.
+    /// (`j = (j1, j2)`), and a rank-one damping `c j jᵀ` on the arms'
+    /// velocities (`-∂f/∂ė`; its force is already in `g`; `c = 0`: none).
+    /// A sink may override it to use the structure.
     #[inline]
     fn add_arms_rank1(
         &mut self,
@@ -58,14 +60,16 @@ pub trait Sink {
         idx: [usize; 3],
         g: [Vec3; 2],
         s: Real,
+        c: Real,
         j: [Vec3; 2],
     ) {
-        let (a, b) = (j[0] * s, j[1] * s);
-        let h = [
-            [outer(&a, &j[0]), outer(&a, &j[1])],
-            [outer(&b, &j[0]), outer(&b, &j[1])],
-        ];
-        self.add_arms(element, idx, g, &h);
+        if c == 0.0 {
+            self.add_arms(element, idx, g, &rank1_blocks(s, j));
+            return;
+        }
+        let (f, dfdx) = arm_blocks(g, &rank1_blocks(s, j));
+        let dfdv = arm_blocks([Vec3::zeros(); 2], &rank1_blocks(c, j)).1;
+        self.add(element, &idx, &f, Some(&dfdx), Some(&dfdv));
     }
 }
 
@@ -100,6 +104,16 @@ pub trait Force {
             self.add_element(e, x, v, mode, sink);
         }
     }
+}
+
+/// The arm blocks `s j_a j_bᵀ` of a rank-one term.
+#[inline]
+pub fn rank1_blocks(s: Real, j: [Vec3; 2]) -> [[Mat3; 2]; 2] {
+    let (a, b) = (j[0] * s, j[1] * s);
+    [
+        [outer(&a, &j[0]), outer(&a, &j[1])],
+        [outer(&b, &j[0]), outer(&b, &j[1])],
+    ]
 }
 
 /// Maps `-∇E` and `-∇²E` of a three-particle element written in terms of

@@ -42,7 +42,8 @@ impl ForceModel {
             damping,
             stretch,
             bend: Bend::on_grid(grid, material.bend, material.bend_threshold, pinned),
-            shear: Shear::on_grid(grid, material.shear, material.shear_threshold),
+            shear: Shear::on_grid(grid, material.shear, material.shear_threshold)
+                .with_damping(material.damping),
             drag: AirDrag::new(&grid.area, material.air_drag),
         }
     }

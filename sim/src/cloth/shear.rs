@@ -12,10 +12,12 @@
 //! `2 E'(q) ∇γ ∇γᵀ` with `∇γ = ∇f / cos γ`; exact at the square rest state,
 //! where `γ = 0`.
 
-use super::angle::{AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDerivatives, ArmHessian};
+use super::angle::{
+    AngleElement, AngleForce, AngleGeom, AngleLaw, ArmDamping, ArmDerivatives, ArmHessian,
+};
 use super::angle::{energy_of_square, exact_hessian_through_f, gradient_through_f};
 use super::grid::Grid;
-use crate::math::Real;
+use crate::math::{Mat3, Real, Vec3, outer};
 use crate::spec::JacobianMode;
 
 /// The shear law.
@@ -53,6 +55,45 @@ impl Shear {
 
 impl AngleLaw for Shear {
     const NAME: &'static str = "shear";
+
+    /// Rayleigh damping of the shear rate: `f = -k γ̇ ∇γ` with
+    /// `γ̇ = ∇γ · ė` (`k = β C_s1`, the dissipation `1/2 k γ̇²`), so a
+    /// quad's corners dissipate `β G A γ̇²` whatever the resolution, as the
+    /// springs' damping does for stretch. Without it in-plane shear waves
+    /// ring undamped far above any step's resolution (`√(G/ρ) π / Δx`,
+    /// 2,200 rad/s for cotton at 40²), and BDF2 converged at first order
+    /// on a swinging cloth (docs/benchmarks.md, section 1n). With
+    /// `∇γ = j / cos γ` (`j = ∇f`, the solver's rank-one `j`):
+    /// `-∂f/∂ė = k/cos²γ j jᵀ`; the exact `-∂f/∂e = k (∇γ (H_γ ė)ᵀ + γ̇ H_γ)`
+    /// with `H_γ` the Hessian of `γ = asin f`.
+    fn damping(g: &AngleGeom, k: Real, rate: [Vec3; 2], mode: JacobianMode) -> Option<ArmDamping> {
+        let cos = g.sin().max(1e-9);
+        let j = [g.g1, g.g2];
+        let c = k / (cos * cos);
+        let jr = j[0].dot(&rate[0]) + j[1].dot(&rate[1]);
+        let grad = [j[0] * (c * jr), j[1] * (c * jr)];
+        let dgde = match mode {
+            JacobianMode::Solver => None,
+            JacobianMode::Exact => {
+                // γ = asin f: γ_f = 1/cos γ, γ_ff = f / cos³ γ.
+                let hg = exact_hessian_through_f(g, 1.0 / cos, g.f / (cos * cos * cos));
+                let gamma_dot = jr / cos;
+                let hr = [
+                    hg[0][0] * rate[0] + hg[0][1] * rate[1],
+                    hg[1][0] * rate[0] + hg[1][1] * rate[1],
+                ];
+                let dg = [j[0] / cos, j[1] / cos];
+                let mut out = [[Mat3::zeros(); 2]; 2];
+                for (a, row) in out.iter_mut().enumerate() {
+                    for (b, block) in row.iter_mut().enumerate() {
+                        *block = (outer(&dg[a], &hr[b]) + hg[a][b] * gamma_dot) * k;
+                    }
+                }
+                Some(out)
+            }
+        };
+        Some(ArmDamping { grad, c, j, dgde })
+    }
 
     fn energy(g: &AngleGeom, c1: Real, c0: Real) -> Real {
         let gamma = g.f.asin();
@@ -133,6 +174,79 @@ mod tests {
                 assert!(
                     (force / (g * gamma * area) - 1.0).abs() < 1e-6,
                     "n {n}, γ {gamma}"
+                );
+            }
+        }
+    }
+
+    /// The shear force with its damping, which has no energy to check the
+    /// force against: the derivatives are checked, `-∂E/∂x` is not.
+    struct Damped(AngleForce<Shear>);
+
+    impl Force for Damped {
+        fn name(&self) -> &'static str {
+            "damped shear"
+        }
+        fn energy(&self, _x: &[Vec3]) -> Option<Real> {
+            None
+        }
+        fn for_each_element(&self, visit: &mut dyn FnMut(&[usize])) {
+            self.0.for_each_element(visit)
+        }
+        fn element_count(&self) -> usize {
+            self.0.element_count()
+        }
+        fn add_element<S: crate::cloth::Sink>(
+            &self,
+            e: usize,
+            x: &[Vec3],
+            v: &[Vec3],
+            mode: JacobianMode,
+            sink: &mut S,
+        ) {
+            self.0.add_element(e, x, v, mode, sink)
+        }
+    }
+
+    #[test]
+    fn shear_damping_matches_finite_differences() {
+        fdcheck::check_on_random_grids(|g| Damped(Shear::on_grid(g, 50.0, 0.0).with_damping(0.01)));
+        fdcheck::check_on_random_grids(|g| {
+            Damped(Shear::on_grid(g, 50.0, 30.0).with_damping(0.002))
+        });
+    }
+
+    /// The damping is Rayleigh's: a trellised cloth shearing uniformly at
+    /// `γ̇` loses `β G A γ̇²` (A its rest area) at any resolution and any
+    /// angle, since every corner element sees the same rate.
+    #[test]
+    fn a_shearing_cloth_dissipates_beta_g_area_rate_squared() {
+        let (g, beta) = (50.0, 0.002);
+        for n in [3, 7, 20] {
+            let (grid, _, _) = fdcheck::random_configuration(n, n, 0.0, 0);
+            let elastic = Shear::on_grid(&grid, g, 0.0);
+            let damped = elastic.clone().with_damping(beta);
+            let area = grid.du * (n - 1) as Real * grid.dv * (n - 1) as Real;
+            for (gamma, rate) in [(0.0_f64, 1.0), (0.3, -2.0), (0.6, 0.5)] {
+                // Warp along x; weft at angle γ from y, turning at `rate`.
+                let weft = Vec3::new(gamma.sin(), gamma.cos(), 0.0);
+                let turn = Vec3::new(gamma.cos(), -gamma.sin(), 0.0) * rate;
+                let (mut x, mut v) = (Vec::new(), Vec::new());
+                for k in 0..grid.len() {
+                    let (i, j) = ((k % n) as Real, (k / n) as Real);
+                    x.push(Vec3::x() * (i * grid.du) + weft * (j * grid.dv));
+                    v.push(turn * (j * grid.dv));
+                }
+                // The damping's power: the elastic force's taken away.
+                let power = |force: &AngleForce<Shear>| -> Real {
+                    let s = fdcheck::evaluate(force, &x, &v, JacobianMode::Solver);
+                    s.f.iter().zip(&v).map(|(f, v)| f.dot(v)).sum()
+                };
+                let power = power(&damped) - power(&elastic);
+                let want = -beta * g * area * rate * rate;
+                assert!(
+                    (power / want - 1.0).abs() < 1e-9,
+                    "n {n}, γ {gamma}: {power} against {want}"
                 );
             }
         }

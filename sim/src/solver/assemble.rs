@@ -406,11 +406,12 @@ impl Sink for AssemblySink<'_> {
         }
     }
 
-    /// PERF: a rank-one arm Hessian `s j jᵀ` (shear's Gauss–Newton term).
-    /// With the particle gradients `J = (j1, -(j1 + j2), j2)` the blocks
-    /// `h'² s J_p J_qᵀ` are nine outer products, and `K w` along the arms
-    /// is `s (j · d) j`: no 3x3 product at all. The same `A` and `b` as
-    /// [`Sink::add_arms`] to round-off.
+    /// PERF: a rank-one arm Hessian `s j jᵀ` (shear's Gauss–Newton term)
+    /// and damping `c j jᵀ` (its Rayleigh damping). With the particle
+    /// gradients `J = (j1, -(j1 + j2), j2)` the blocks `(h'² s + h' c)
+    /// J_p J_qᵀ` are nine outer products, and `K w` along the arms is
+    /// `s (j · d) j`: no 3x3 product at all. The same `A` and `b` as
+    /// [`Sink::add`] to round-off.
     #[inline]
     fn add_arms_rank1(
         &mut self,
@@ -418,6 +419,7 @@ impl Sink for AssemblySink<'_> {
         idx: [usize; 3],
         g: [Vec3; 2],
         s: Real,
+        c: Real,
         j: [Vec3; 2],
     ) {
         let [d1, d2] = self.arm_displacements(idx);
@@ -425,7 +427,7 @@ impl Sink for AssemblySink<'_> {
         let (g1, g2) = (g[0] + j[0] * r, g[1] + j[1] * r);
         let rhs = [-g1, g1 + g2, -g2];
         let jp = [j[0], -(j[0] + j[1]), j[1]];
-        let scale = s * self.h * self.h;
+        let scale = s * self.h * self.h + c * self.h;
         let slots = &self.slots[element * 9..element * 9 + 9];
         for (a, &p) in idx.iter().enumerate() {
             if !self.rows.contains(&p) {
