@@ -272,29 +272,28 @@ impl<L: AngleLaw> Force for AngleForce<L> {
         } else {
             None
         };
+        let grad = match &damping {
+            Some(dm) => [d.grad[0] + dm.grad[0], d.grad[1] + dm.grad[1]],
+            None => d.grad,
+        };
         match (d.hess, damping) {
-            (ArmHessian::Full(h), None) => sink.add_arms(e, el.idx, d.grad, &h),
-            (ArmHessian::Rank1 { s, j }, None) => sink.add_arms_rank1(e, el.idx, d.grad, s, 0.0, j),
-            (ArmHessian::Rank1 { s, j }, Some(dm)) => {
-                debug_assert_eq!(j, dm.j, "the damping's j is the law's");
-                let grad = [d.grad[0] + dm.grad[0], d.grad[1] + dm.grad[1]];
-                sink.add_arms_rank1(e, el.idx, grad, s, dm.c, j);
+            (ArmHessian::Full(h), None) => sink.add_arms(e, el.idx, grad, &h),
+            (ArmHessian::Rank1 { s, j }, dm) => {
+                let c = dm.map_or(0.0, |dm| {
+                    debug_assert_eq!(j, dm.j, "the damping's j is the law's");
+                    dm.c
+                });
+                sink.add_arms_rank1(e, el.idx, grad, s, c, j);
             }
-            (ArmHessian::Full(h), Some(dm)) => {
-                // The exact path (tests): every block through the generic sink.
-                let grad = [d.grad[0] + dm.grad[0], d.grad[1] + dm.grad[1]];
-                let mut hx = h;
-                if let Some(dh) = dm.dgde {
-                    for (row, drow) in hx.iter_mut().zip(dh) {
-                        for (block, dblock) in row.iter_mut().zip(drow) {
-                            *block += dblock;
-                        }
+            (ArmHessian::Full(mut h), Some(dm)) => {
+                // The exact path (tests): the damping's `∂f/∂x` joins the
+                // stiffness blocks.
+                for (row, drow) in h.iter_mut().zip(dm.dgde.unwrap_or_default()) {
+                    for (block, dblock) in row.iter_mut().zip(drow) {
+                        *block += dblock;
                     }
                 }
-                let (f, dfdx) = super::arm_blocks(grad, &hx);
-                let cj = super::force::rank1_blocks(dm.c, dm.j);
-                let dfdv = super::arm_blocks([Vec3::zeros(); 2], &cj).1;
-                sink.add(e, &el.idx, &f, Some(&dfdx), Some(&dfdv));
+                super::force::add_damped_arms(sink, e, el.idx, grad, &h, dm.c, dm.j);
             }
         }
     }

@@ -65,12 +65,28 @@ pub trait Sink {
     ) {
         if c == 0.0 {
             self.add_arms(element, idx, g, &rank1_blocks(s, j));
-            return;
+        } else {
+            add_damped_arms(self, element, idx, g, &rank1_blocks(s, j), c, j);
         }
-        let (f, dfdx) = arm_blocks(g, &rank1_blocks(s, j));
-        let dfdv = arm_blocks([Vec3::zeros(); 2], &rank1_blocks(c, j)).1;
-        self.add(element, &idx, &f, Some(&dfdx), Some(&dfdv));
     }
+}
+
+/// A three-particle element in terms of its arms (as [`Sink::add_arms`]:
+/// `g`, the arm blocks `h`), with a rank-one damping `c j jᵀ` on the
+/// arms' velocities (`-∂f/∂ė`; its force already in `g`), through the
+/// generic [`Sink::add`].
+pub fn add_damped_arms<S: Sink + ?Sized>(
+    sink: &mut S,
+    element: usize,
+    idx: [usize; 3],
+    g: [Vec3; 2],
+    h: &[[Mat3; 2]; 2],
+    c: Real,
+    j: [Vec3; 2],
+) {
+    let (f, dfdx) = arm_blocks(g, h);
+    let dfdv = arm_blocks([Vec3::zeros(); 2], &rank1_blocks(c, j)).1;
+    sink.add(element, &idx, &f, Some(&dfdx), Some(&dfdv));
 }
 
 /// A force term of the cloth (method.md §1, eq. [4]).

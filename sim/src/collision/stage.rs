@@ -139,16 +139,10 @@ impl CollisionStage<'_> {
         // offset in one step, stretching its springs 57–180 %.
         if leaving.contains(&true) {
             let before = self.contacts.len();
-            let mut k = 0;
-            self.contacts.retain(|_| {
-                k += 1;
-                !leaving[k - 1]
-            });
-            let mut k = 0;
-            plans.retain(|_| {
-                k += 1;
-                !leaving[k - 1]
-            });
+            let mut gone = leaving.iter();
+            self.contacts.retain(|_| gone.next() == Some(&false));
+            let mut gone = leaving.iter();
+            plans.retain(|_| gone.next() == Some(&false));
             self.scratch.counters.released += before - self.contacts.len();
         }
         self.scratch.leaving = leaving;
