@@ -26,11 +26,7 @@ fn drape(preconditioner: &str) -> Scene {
 }
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("pool")
-        .install(f)
+    drapery_sim::parallel::with_threads(threads, f)
 }
 
 /// Every frame's positions, from frame `from` of a run resumed from

@@ -68,11 +68,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             }
             sink.finish()
         });
-        let simulated = crate::threads::on_pool(|| {
-            sim.run(&control, &mut rec, |s, stats| {
-                tx.send((stats.frame, stats.time, s.state().x.clone()))
-                    .map_err(|_| "the frame writer stopped")
-            })
+        let simulated = sim.run(&control, &mut rec, |s, stats| {
+            tx.send((stats.frame, stats.time, s.state().x.clone()))
+                .map_err(|_| "the frame writer stopped")
         });
         drop(tx);
         let written = writer

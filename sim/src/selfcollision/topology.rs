@@ -21,6 +21,7 @@ use super::contour::{self, Contours};
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh};
 use crate::math::{Real, Vec3};
+use crate::parallel;
 
 /// Triangles, edges, their owners and the hierarchy.
 #[derive(Debug, Clone)]
@@ -39,6 +40,8 @@ pub struct ClothMesh {
     /// Per hierarchy node, the cone of its patch's normals over the last
     /// refit's motion: a flat one cannot meet itself.
     cones: Vec<Cone>,
+    /// Per triangle, the cone of its normals over the last refit's motion.
+    tri_cones: Vec<Cone>,
     /// Each vertex's swept box of the current query.
     pub vertex_boxes: Vec<Aabb>,
     /// Per hierarchy node, its boundary: a flat patch is culled only if
@@ -128,6 +131,7 @@ impl ClothMesh {
             tri_boxes,
             edge_boxes,
             cones: Vec::new(),
+            tri_cones: Vec::new(),
             vertex_boxes,
         }
     }
@@ -142,15 +146,23 @@ impl ClothMesh {
         self.x0.extend_from_slice(x0);
         self.x1.clear();
         self.x1.extend_from_slice(x1);
+        // Each triangle's cone (the costly part: square roots and
+        // divisions) on the team, then the merges up the tree, in the
+        // same order as ever.
         let triangles = &self.triangles;
+        self.tri_cones.resize(triangles.len(), Cone::WHOLE);
+        parallel::for_chunks_min(&mut self.tri_cones, parallel::ROWS_MIN, |start, cones| {
+            for (c, tri) in cones.iter_mut().zip(&triangles[start..]) {
+                let k = tri.map(|k| k as usize);
+                *c = Cone::of_triangle(k.map(|k| &x0[k]), k.map(|k| &x1[k]));
+            }
+        });
+        let tri_cones = &self.tri_cones;
         self.tri_bvh.fold_up(
             &mut self.cones,
             |leaf| {
                 leaf.iter()
-                    .map(|&t| {
-                        let k = triangles[t as usize].map(|k| k as usize);
-                        Cone::of_triangle(k.map(|k| &x0[k]), k.map(|k| &x1[k]))
-                    })
+                    .map(|&t| tri_cones[t as usize])
                     .reduce(|a, b| a.merge(&b))
                     .unwrap_or_default()
             },
@@ -161,18 +173,27 @@ impl ClothMesh {
     /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
     /// cull nothing.
     pub fn refit_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
-        for (b, (a, c)) in self.vertex_boxes.iter_mut().zip(x0.iter().zip(x1)) {
-            *b = Aabb::of_segment(a, c).grown(0.5 * pad);
-        }
+        let min = 4 * parallel::ROWS_MIN;
+        parallel::for_chunks_min(&mut self.vertex_boxes, min, |start, boxes| {
+            for (k, b) in boxes.iter_mut().enumerate() {
+                *b = Aabb::of_segment(&x0[start + k], &x1[start + k]).grown(0.5 * pad);
+            }
+        });
         let vb = &self.vertex_boxes;
-        for (b, t) in self.tri_boxes.iter_mut().zip(&self.triangles) {
-            *b = vb[t[0] as usize]
-                .union(&vb[t[1] as usize])
-                .union(&vb[t[2] as usize]);
-        }
-        for (b, e) in self.edge_boxes.iter_mut().zip(&self.edges) {
-            *b = vb[e[0] as usize].union(&vb[e[1] as usize]);
-        }
+        let triangles = &self.triangles;
+        parallel::for_chunks_min(&mut self.tri_boxes, min, |start, boxes| {
+            for (b, t) in boxes.iter_mut().zip(&triangles[start..]) {
+                *b = vb[t[0] as usize]
+                    .union(&vb[t[1] as usize])
+                    .union(&vb[t[2] as usize]);
+            }
+        });
+        let edges = &self.edges;
+        parallel::for_chunks_min(&mut self.edge_boxes, min, |start, boxes| {
+            for (b, e) in boxes.iter_mut().zip(&edges[start..]) {
+                *b = vb[e[0] as usize].union(&vb[e[1] as usize]);
+            }
+        });
         self.tri_bvh.refit(&self.tri_boxes);
     }
 

@@ -20,8 +20,6 @@
 
 use std::ops::Range;
 
-use rayon::prelude::*;
-
 use super::bsr::BlockCsr;
 use super::scheme::Scheme;
 use crate::cloth::{Force, ForceModel, Sink, arm_blocks};
@@ -159,7 +157,7 @@ impl System {
             slot_table(&model.shear, &a),
             slot_table(&model.drag, &a),
         ];
-        let count = rayon::current_num_threads().min(n / BAND_MIN).max(1);
+        let count = crate::parallel::threads().min(n / BAND_MIN).max(1);
         let bands = (0..count)
             .map(|k| {
                 let rows = k * n / count..(k + 1) * n / count;
@@ -207,14 +205,12 @@ impl System {
             (values, b) = (rest_v, rest_b);
         }
         let slots = &self.slots;
-        let task = |(band, values, b): (&Band, &mut [Mat3], &mut [Vec3])| {
-            assemble_band(model, input, w, slots, band, values, b);
-        };
-        if work.len() > 1 {
-            work.into_par_iter().for_each(task);
-        } else {
-            work.into_iter().for_each(task);
-        }
+        crate::parallel::each(
+            work,
+            |(band, values, b): (&Band, &mut [Mat3], &mut [Vec3])| {
+                assemble_band(model, input, w, slots, band, values, b);
+            },
+        );
     }
 }
 

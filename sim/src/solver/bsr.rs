@@ -91,7 +91,7 @@ impl BlockCsr {
     /// `y = A x`, rows in parallel chunks (each row's sum in column
     /// order, so the result does not depend on the thread count).
     pub fn mul(&self, x: &[Vec3], y: &mut [Vec3]) {
-        crate::parallel::for_chunks(y, |start, chunk| {
+        crate::parallel::for_chunks_min(y, crate::parallel::ROWS_MIN, |start, chunk| {
             for (k, yi) in chunk.iter_mut().enumerate() {
                 let i = start + k;
                 let mut acc = Vec3::zeros();

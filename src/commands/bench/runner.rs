@@ -27,16 +27,13 @@ pub fn scene(spec: &Spec, what: &str) -> anyhow::Result<Scene> {
 }
 
 /// Runs `scene` from rest to the end (or its first error), keeping each
-/// frame's positions if `capture`, on a pool thread
-/// ([`crate::threads::on_pool`]).
+/// frame's positions if `capture`.
 pub fn simulate(scene: &Scene, capture: bool) -> anyhow::Result<Outcome> {
     let options = RunOptions {
         capture,
         ..RunOptions::default()
     };
-    Ok(crate::threads::on_pool(|| {
-        runner::simulate(scene, options)
-    })?)
+    Ok(runner::simulate(scene, options)?)
 }
 
 /// The median of `values` (the mean of the middle two for an even count).

@@ -128,11 +128,9 @@ fn measure(
     let mut spec = resized(base, n, duration);
     spec.solver.preconditioner = preconditioner;
     let scene = runner::scene(&spec, &format!("{n}x{n}"))?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(usize::from(threads))
-        .build()
-        .context("--threads")?;
-    let out = pool.install(|| runner::simulate(&scene, false))?;
+    let out = drapery_sim::parallel::with_threads(usize::from(threads), || {
+        runner::simulate(&scene, false)
+    })?;
     if let Some(e) = out.error {
         anyhow::bail!("{n}x{n} with {}: {e}", preconditioner.name());
     }

@@ -95,10 +95,10 @@ pub enum Entry {
 }
 
 /// Fewest pack nodes of one colour worth spreading over threads: a pack
-/// node is ~0.1 µs, and a colour of fewer does not pay for a fork-join
-/// (~5 µs). A 100² cloth's colours (~900 pack nodes) are spread; a 30²
-/// cloth's (~80) are not.
-const SWEEP_PARALLEL_MIN: usize = 512;
+/// node is ~0.1 µs, and sharing a loop costs ~0.3 µs with the team
+/// spinning (`parallel::Team`). A 30² cloth's colours (~90 pack nodes)
+/// are spread; one of a handful of lines is not.
+const SWEEP_PARALLEL_MIN: usize = 64;
 
 /// An off-line neighbour outside the grid, or a padding lane.
 const MISSING: u32 = u32::MAX;
