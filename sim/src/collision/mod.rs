@@ -20,7 +20,7 @@ mod triangle;
 
 pub use aabb::Aabb;
 pub use analytic::{Analytic, Primitive};
-pub use bvh::Bvh;
+pub use bvh::{Bvh, Task as BvhTask};
 pub use collider::{Collider, display_mesh};
 pub use contact::{Contact, Plan};
 pub use features::Features;

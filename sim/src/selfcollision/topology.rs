@@ -19,7 +19,7 @@
 use super::cones::Cone;
 use super::contour::{self, Contours};
 use crate::cloth::Grid;
-use crate::collision::{Aabb, Bvh};
+use crate::collision::{Aabb, Bvh, BvhTask as Task};
 use crate::math::{Real, Vec3};
 use crate::parallel;
 
@@ -48,6 +48,10 @@ pub struct ClothMesh {
     /// its projected boundary stays simple.
     contours: Contours,
     contour_scratch: contour::Scratch,
+    /// A gather's seeds and pieces (`ClothMesh::gather`), kept between
+    /// steps.
+    seeds: Vec<Task>,
+    pieces: Vec<Piece>,
     /// The last refit's motion.
     x0: Vec<Vec3>,
     x1: Vec<Vec3>,
@@ -123,6 +127,8 @@ impl ClothMesh {
             tri_bvh,
             contours,
             contour_scratch: contour::Scratch::default(),
+            seeds: Vec::new(),
+            pieces: Vec::new(),
             x0: Vec::new(),
             x1: Vec::new(),
             triangles,
@@ -197,25 +203,65 @@ impl ClothMesh {
         self.tri_bvh.refit(&self.tri_boxes);
     }
 
-    /// Every pair of distinct triangles whose boxes overlap, in the
-    /// hierarchy's fixed order; with `cull`, except pairs inside a patch
-    /// that the last [`ClothMesh::refit`] found cannot meet itself.
-    fn triangle_pairs(
-        &self,
+    /// Whether node `node`'s patch cannot meet itself over the last
+    /// [`ClothMesh::refit`]'s motion (with `cull`; never without).
+    fn flat(&self, cull: bool, node: usize, scratch: &mut contour::Scratch) -> bool {
+        cull && self.cones.get(node).is_some_and(|c| {
+            c.is_flat()
+                && self
+                    .contours
+                    .simple(node, c.axis(), &self.edges, &self.x0, &self.x1, scratch)
+        })
+    }
+
+    /// Every pair of distinct triangles whose boxes overlap, less (with
+    /// `cull`) the pairs inside patches that cannot meet themselves, each
+    /// handed to `body` with two lists to fill: on the team, a piece of
+    /// the hierarchy's seeds per task (`Bvh::self_pair_seeds`). The pieces
+    /// come back in seed order, so their lists one after another are what
+    /// one descent would have filled, whatever the thread count.
+    fn gather(
+        &mut self,
         cull: bool,
-        scratch: &mut contour::Scratch,
-        f: impl FnMut(usize, usize),
-    ) {
-        let (cones, contours, edges) = (&self.cones, &self.contours, &self.edges);
-        let (x0, x1) = (&self.x0, &self.x1);
-        self.tri_bvh.self_pairs_skipping(
-            |node| {
-                cull && cones.get(node).is_some_and(|c| {
-                    c.is_flat() && contours.simple(node, c.axis(), edges, x0, x1, scratch)
-                })
-            },
-            f,
+        body: impl Fn(&Self, usize, usize, &mut Lists) + Sync,
+    ) -> Vec<Piece> {
+        let mut pieces = std::mem::take(&mut self.pieces);
+        let mut seeds = std::mem::take(&mut self.seeds);
+        let mut scratch = std::mem::take(&mut self.contour_scratch);
+        let this = &*self;
+        this.tri_bvh.self_pair_seeds(
+            SEEDS,
+            |node| this.flat(cull, node, &mut scratch),
+            &mut seeds,
         );
+        let count = (parallel::threads() * 4).clamp(1, seeds.len().max(1));
+        pieces.resize_with(count, Piece::default);
+        for p in &mut pieces {
+            p.lists.first.clear();
+            p.lists.second.clear();
+        }
+        let per = seeds.len().div_ceil(count).max(1);
+        parallel::each(
+            pieces.iter_mut().zip(seeds.chunks(per)),
+            |(piece, group)| {
+                let Piece {
+                    lists,
+                    scratch,
+                    stack,
+                } = piece;
+                for &seed in group {
+                    this.tri_bvh.self_pairs_under(
+                        seed,
+                        &mut |node| this.flat(cull, node, scratch),
+                        stack,
+                        &mut |s, t| body(this, s, t, lists),
+                    );
+                }
+            },
+        );
+        self.seeds = seeds;
+        self.contour_scratch = scratch;
+        pieces
     }
 
     /// A pair's four particles: a vertex then a triangle's corners, or two
@@ -259,37 +305,40 @@ impl ClothMesh {
     /// smaller), into `ee`: both in the hierarchy's fixed order, less the
     /// pairs inside patches that cannot meet themselves.
     pub fn feature_pairs(&mut self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) {
-        vf.clear();
-        ee.clear();
-        let mut scratch = std::mem::take(&mut self.contour_scratch);
-        self.triangle_pairs(true, &mut scratch, |s, t| {
-            let (os, ot) = (&self.owned[s], &self.owned[t]);
+        let pieces = self.gather(true, |m, s, t, out| {
+            let (os, ot) = (&m.owned[s], &m.owned[t]);
             for (mine, tri) in [(os, t), (ot, s)] {
-                let corners = &self.triangles[tri];
+                let corners = &m.triangles[tri];
                 for &v in mine.vertices.as_slice() {
                     if !corners.contains(&v)
-                        && self.vertex_boxes[v as usize].overlaps(&self.tri_boxes[tri])
+                        && m.vertex_boxes[v as usize].overlaps(&m.tri_boxes[tri])
                     {
-                        vf.push((v, tri as u32));
+                        out.first.push((v, tri as u32));
                     }
                 }
             }
             for &e in os.edges.as_slice() {
-                let [a0, a1] = self.edges[e as usize];
+                let [a0, a1] = m.edges[e as usize];
                 for &f in ot.edges.as_slice() {
-                    let [b0, b1] = self.edges[f as usize];
+                    let [b0, b1] = m.edges[f as usize];
                     if a0 != b0
                         && a0 != b1
                         && a1 != b0
                         && a1 != b1
-                        && self.edge_boxes[e as usize].overlaps(&self.edge_boxes[f as usize])
+                        && m.edge_boxes[e as usize].overlaps(&m.edge_boxes[f as usize])
                     {
-                        ee.push((e.min(f), e.max(f)));
+                        out.second.push((e.min(f), e.max(f)));
                     }
                 }
             }
         });
-        self.contour_scratch = scratch;
+        vf.clear();
+        ee.clear();
+        for p in &pieces {
+            vf.extend_from_slice(&p.lists.first);
+            ee.extend_from_slice(&p.lists.second);
+        }
+        self.pieces = pieces;
     }
 
     /// Whether every vertex box holds `x` with `margin` to spare: pairs
@@ -307,24 +356,46 @@ impl ClothMesh {
     /// with `cull`, less the pairs inside patches that the last
     /// [`ClothMesh::refit`] found cannot meet themselves.
     pub fn edge_face_pairs(&mut self, cull: bool, out: &mut Vec<(u32, u32)>) {
-        out.clear();
-        let mut scratch = std::mem::take(&mut self.contour_scratch);
-        self.triangle_pairs(cull, &mut scratch, |s, t| {
+        let pieces = self.gather(cull, |m, s, t, lists| {
             for (owner, tri) in [(s, t), (t, s)] {
-                let corners = &self.triangles[tri];
-                for &e in self.owned[owner].edges.as_slice() {
-                    let [a0, a1] = self.edges[e as usize];
+                let corners = &m.triangles[tri];
+                for &e in m.owned[owner].edges.as_slice() {
+                    let [a0, a1] = m.edges[e as usize];
                     if !corners.contains(&a0)
                         && !corners.contains(&a1)
-                        && self.edge_boxes[e as usize].overlaps(&self.tri_boxes[tri])
+                        && m.edge_boxes[e as usize].overlaps(&m.tri_boxes[tri])
                     {
-                        out.push((e, tri as u32));
+                        lists.first.push((e, tri as u32));
                     }
                 }
             }
         });
-        self.contour_scratch = scratch;
+        out.clear();
+        for p in &pieces {
+            out.extend_from_slice(&p.lists.first);
+        }
+        self.pieces = pieces;
     }
+}
+
+/// Seeds of the triangle hierarchy's self-descent shared out per gather:
+/// enough for two threads to balance, few enough that opening them (on
+/// the caller) costs nothing.
+const SEEDS: usize = 64;
+
+/// Two lists of pairs a gather fills.
+#[derive(Debug, Clone, Default)]
+struct Lists {
+    first: Vec<(u32, u32)>,
+    second: Vec<(u32, u32)>,
+}
+
+/// One task's share of a gather: its lists and scratch.
+#[derive(Debug, Clone, Default)]
+struct Piece {
+    lists: Lists,
+    scratch: contour::Scratch,
+    stack: Vec<Task>,
 }
 
 /// The features a triangle owns: at most its three vertices and edges.

@@ -10,6 +10,7 @@
 //! traffic of every sweep.
 
 use crate::math::{Mat3, Vec3};
+use crate::parallel;
 use crate::solver::{BlockCsr, Filter};
 
 /// A 3x3 block in single precision.
@@ -162,11 +163,14 @@ impl GridMatrix {
         if self.from_csr.len() != a.nnz() {
             self.from_csr = self.places_of(a);
         }
-        self.values.fill(Block::zeros());
-        for p in 0..a.rows() {
+        // Row `p` owns `values[p k .. (p + 1) k]`: rows on the team.
+        let k = self.offsets.len();
+        let from_csr = &self.from_csr;
+        parallel::for_rows(&mut self.values, k, parallel::ROWS_MIN * k, |p, row| {
+            row.fill(Block::zeros());
             let free = filter[p] == Filter::Free;
             for s in a.row_slots(p) {
-                let at = self.from_csr[s];
+                let at = from_csr[s];
                 if at == NOWHERE {
                     continue;
                 }
@@ -182,9 +186,9 @@ impl GridMatrix {
                     }
                     m
                 };
-                self.values[at as usize] = m.cast::<f32>();
+                row[at as usize - p * k] = m.cast::<f32>();
             }
-        }
+        });
     }
 
     /// Where each slot of `a` goes in `values` ([`NOWHERE`] if its offset
@@ -204,7 +208,7 @@ impl GridMatrix {
 
     /// `y = A x`.
     pub fn mul(&self, x: &[Vec3f], y: &mut [Vec3f]) {
-        crate::parallel::for_chunks(y, |start, chunk| {
+        parallel::for_chunks_min(y, parallel::ROWS_MIN, |start, chunk| {
             for (k, out) in chunk.iter_mut().enumerate() {
                 let p = start + k;
                 *out = self.row_product(p % self.nu, p / self.nu, x);
@@ -214,7 +218,7 @@ impl GridMatrix {
 
     /// `r = b - A x`.
     pub fn residual(&self, b: &[Vec3f], x: &[Vec3f], r: &mut [Vec3f]) {
-        crate::parallel::for_chunks(r, |start, chunk| {
+        parallel::for_chunks_min(r, parallel::ROWS_MIN, |start, chunk| {
             for (k, out) in chunk.iter_mut().enumerate() {
                 let p = start + k;
                 *out = b[p] - self.row_product(p % self.nu, p / self.nu, x);

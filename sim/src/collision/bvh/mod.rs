@@ -7,6 +7,10 @@
 //! never updated; [`Bvh::refit`] exists for deforming obstacles, whose
 //! leaves move but whose topology stays.
 
+mod self_pairs;
+
+pub use self_pairs::Task;
+
 use super::aabb::Aabb;
 use crate::math::{Real, Vec3};
 
@@ -207,50 +211,6 @@ impl Bvh {
         }
     }
 
-    /// Calls `f(i, j)` once for every pair `i != j` of this hierarchy's
-    /// primitives whose boxes overlap (in either order).
-    pub fn self_pairs(&self, f: impl FnMut(usize, usize)) {
-        self.self_pairs_skipping(|_| false, f);
-    }
-
-    /// [`Bvh::self_pairs`] without the pairs that lie wholly under a node
-    /// for which `skip(node)` holds (nodes numbered as by
-    /// [`Bvh::fold_up`]): for a caller that knows a subtree's primitives
-    /// cannot interact with each other.
-    pub fn self_pairs_skipping(
-        &self,
-        mut skip: impl FnMut(usize) -> bool,
-        mut f: impl FnMut(usize, usize),
-    ) {
-        if self.nodes.is_empty() {
-            return;
-        }
-        let mut stack = vec![(0u32, 0u32)];
-        while let Some((a, b)) = stack.pop() {
-            if a != b {
-                self.descend(self, a, b, &mut stack, &mut f);
-                continue;
-            }
-            if skip(a as usize) {
-                continue;
-            }
-            let na = &self.nodes[a as usize];
-            if na.count == 0 {
-                let (l, r) = (a + 1, na.start);
-                stack.extend([(l, l), (r, r), (l, r)]);
-                continue;
-            }
-            let leaf = self.leaf(na);
-            for (k, &i) in leaf.iter().enumerate() {
-                for &j in &leaf[k + 1..] {
-                    if self.boxes[i as usize].overlaps(&self.boxes[j as usize]) {
-                        f(i as usize, j as usize);
-                    }
-                }
-            }
-        }
-    }
-
     /// One step of a two-tree descent at nodes `a` (here) and `b` (in
     /// `other`): nothing if their boxes miss, the primitive pairs of two
     /// leaves, or the children's pairs pushed on `stack`.
@@ -315,7 +275,7 @@ impl Bvh {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// Tree-against-tree and self traversals find exactly the overlapping
@@ -353,59 +313,9 @@ mod tests {
         assert_eq!(found, brute);
     }
 
-    /// Skipping a node drops exactly the pairs with both primitives under
-    /// it; a fold up the tree sees every primitive once.
-    #[test]
-    fn skipped_nodes_drop_exactly_their_inner_pairs() {
-        let mut rng = StdRng::seed_from_u64(17);
-        let boxes = random_boxes(&mut rng, 300);
-        let bvh = Bvh::build(&boxes);
-        let mut under: Vec<Vec<usize>> = Vec::new();
-        let mut counts = Vec::new();
-        bvh.fold_up(&mut counts, <[u32]>::len, |a, b| a + b);
-        assert_eq!(counts[0], 300);
-        // The primitives under each node, by walking it.
-        for k in 0..bvh.nodes.len() {
-            let mut stack = vec![k];
-            let mut prims = Vec::new();
-            while let Some(n) = stack.pop() {
-                let node = &bvh.nodes[n];
-                if node.count > 0 {
-                    prims.extend(bvh.leaf(node).iter().map(|&i| i as usize));
-                } else {
-                    stack.extend([n + 1, node.start as usize]);
-                }
-            }
-            assert_eq!(prims.len(), counts[k]);
-            under.push(prims);
-        }
-        let pairs = |skip: &dyn Fn(usize) -> bool| {
-            let mut found = Vec::new();
-            bvh.self_pairs_skipping(skip, |i, j| found.push((i.min(j), i.max(j))));
-            found.sort_unstable();
-            found
-        };
-        let all = pairs(&|_| false);
-        let mut with_inner_pairs = 0;
-        for skipped in (0..bvh.nodes.len()).step_by(7) {
-            let inside = &under[skipped];
-            let want: Vec<_> = all
-                .iter()
-                .copied()
-                .filter(|(i, j)| !(inside.contains(i) && inside.contains(j)))
-                .collect();
-            with_inner_pairs += usize::from(want.len() < all.len());
-            assert_eq!(pairs(&|k| k == skipped), want, "node {skipped}");
-        }
-        assert!(
-            with_inner_pairs >= 5,
-            "{with_inner_pairs} nodes had inner pairs"
-        );
-    }
-
     use rand::{RngExt, SeedableRng, rngs::StdRng};
 
-    fn random_boxes(rng: &mut StdRng, n: usize) -> Vec<Aabb> {
+    pub fn random_boxes(rng: &mut StdRng, n: usize) -> Vec<Aabb> {
         (0..n)
             .map(|_| {
                 let c = Vec3::new(
