@@ -32,7 +32,7 @@ use std::thread::{JoinHandle, Thread};
 use std::time::{Duration, Instant};
 
 /// How long an idle helper spins before it starts yielding its core.
-pub const SPIN: Duration = Duration::from_micros(50);
+pub const SPIN: Duration = Duration::from_micros(10);
 /// How long an idle helper waits (spinning, then yielding) before it
 /// parks: longer than the serial gaps inside a step, shorter than the
 /// pause between frames of a slow client.
@@ -171,7 +171,7 @@ impl Team {
         while s.done.load(Acquire) < count {
             // A helper is finishing its index (or was preempted in it).
             waited = waited.saturating_add(1);
-            if waited < 1 << 16 {
+            if waited < 1 << 10 {
                 std::hint::spin_loop();
             } else {
                 std::thread::yield_now();
