@@ -115,7 +115,7 @@ impl Bvh {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::random_boxes;
+    use super::super::tree::tests::random_boxes;
     use super::*;
     use rand::{SeedableRng, rngs::StdRng};
 
