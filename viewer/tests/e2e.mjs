@@ -130,7 +130,13 @@ try {
   await page.click("#submit-example");
   await page.waitForFunction(() => Number(document.querySelector("#self-contacts").textContent) > 0, null, { timeout: 120_000 });
   const touching = await page.textContent("#self-contacts");
-  const { pink } = await canvasPixels(page);
+  // The count arrives with a frame's stats; its particles are painted
+  // when that frame is drawn, an animation frame or more later.
+  let pink = 0;
+  for (let tries = 0; tries < 50 && pink === 0; tries++) {
+    if (tries > 0) await page.waitForTimeout(100);
+    ({ pink } = await canvasPixels(page));
+  }
   check(pink > 0, `self contacts are highlighted (${touching} particles listed, ${pink} pink samples)`);
   await page.screenshot({ path: join(artifacts, "viewer-self-contacts.png") });
   check(pageErrors.length === 0, `no page errors (${pageErrors.join("; ")})`);
