@@ -132,6 +132,27 @@ impl Cone {
         Self::holding(&[n0, m, n1])
     }
 
+    /// The cone of a triangle's normals while its edge vectors each
+    /// change by at most `bend` from their values at `x` (any motion of
+    /// its corners whose differences move by at most `bend`): about its
+    /// normal `n = e1 × e2` at `x`, whose change
+    /// `d1 × e2 + e1 × d2 + d1 × d2` is at most
+    /// `ρ = bend (|e1| + |e2|) + bend²` long, so every normal of the
+    /// motion is within `asin(ρ / |n|)` of it.
+    pub fn of_turning_triangle(x: [&Vec3; 3], bend: Real) -> Self {
+        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+        let n = e1.cross(&e2);
+        let len = n.norm();
+        let turn = bend * (e1.norm() + e2.norm()) + bend * bend;
+        // Round-off in `n` itself, relative to the edges' product.
+        let turn = turn + 1e-12 * e1.norm() * e2.norm();
+        if turn >= len {
+            return Self::WHOLE;
+        }
+        let sin = turn / len;
+        Self::about(n / len, (1.0 - sin * sin).sqrt())
+    }
+
     /// A cone holding both, about the mean of their axes: each part's
     /// directions are within `θ + h` of it, `θ` the angle between the
     /// axes, `h` the part's half-angle, and `cos(θ + h)` needs no angle.
@@ -219,6 +240,40 @@ mod tests {
                 let n = (x[1] - x[0]).cross(&(x[2] - x[0]));
                 if n.norm() > 1e-9 {
                     assert!(holds(&c, &n), "t {t}: {c:?} misses {n:?}");
+                }
+            }
+        }
+        assert!(bounded > 100, "only {bounded} of 500 cones bounded");
+    }
+
+    /// A turning triangle's cone holds its normal under random changes
+    /// of its corners whose differences stay within the bound.
+    #[test]
+    fn a_turning_triangles_cone_holds_every_normal_within_its_bound() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let mut bounded = 0;
+        for _ in 0..500 {
+            let x: [Vec3; 3] = std::array::from_fn(|_| random_unit(&mut rng));
+            let bend = rng.random_range(0.0..0.3);
+            let c = Cone::of_turning_triangle([&x[0], &x[1], &x[2]], bend);
+            bounded += usize::from(c.is_flat());
+            for _ in 0..50 {
+                // Corner 0 moves anywhere; the others so that each edge
+                // vector from corner 0 changes by at most `bend`.
+                let d0 = random_unit(&mut rng) * rng.random_range(0.0..2.0);
+                let y: Vec<Vec3> = (0..3)
+                    .map(|k| {
+                        let own = if k == 0 {
+                            Vec3::zeros()
+                        } else {
+                            random_unit(&mut rng) * (bend * rng.random_range(0.0..1.0))
+                        };
+                        x[k] + d0 + own
+                    })
+                    .collect();
+                let n = (y[1] - y[0]).cross(&(y[2] - y[0]));
+                if n.norm() > 1e-9 {
+                    assert!(holds(&c, &n), "bend {bend}: {c:?} misses {n:?}");
                 }
             }
         }

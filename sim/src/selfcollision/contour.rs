@@ -37,6 +37,18 @@ pub struct Contours {
     ranges: Vec<Option<(u32, u32)>>,
 }
 
+/// A motion the contour test holds over: every particle moves linearly
+/// from `x0` to `x1` and, besides, anywhere within `slack` of that path.
+#[derive(Debug, Clone, Copy)]
+pub struct Sweep<'a> {
+    /// Positions at the start.
+    pub x0: &'a [Vec3],
+    /// Positions at the end.
+    pub x1: &'a [Vec3],
+    /// How far each particle may stray from its path, metres.
+    pub slack: Real,
+}
+
 /// Scratch of one test: each boundary edge's projected ends, its reach
 /// (how far its ends move within the plane) and its extent along the
 /// sweep direction.
@@ -94,17 +106,16 @@ impl Contours {
     }
 
     /// Whether node `node`'s boundary, projected along `axis` (unit), is
-    /// simple at `x0` and stays so while every particle moves linearly to
-    /// `x1`.
+    /// simple at the start of `sweep` and stays so over it.
     pub fn simple(
         &self,
         node: usize,
         axis: &Vec3,
         mesh_edges: &[[u32; 2]],
-        x0: &[Vec3],
-        x1: &[Vec3],
+        sweep: &Sweep<'_>,
         scratch: &mut Scratch,
     ) -> bool {
+        let Sweep { x0, x1, slack } = *sweep;
         let Some(Some((s, e))) = self.ranges.get(node).copied() else {
             return false;
         };
@@ -123,7 +134,7 @@ impl Contours {
             let [a, b] = ends.map(|v| v as usize);
             let (p, q) = (flat(x0[a]), flat(x0[b]));
             let (dp, dq) = (flat(x1[a] - x0[a]), flat(x1[b] - x0[b]));
-            let reach = dp.norm().max(dq.norm());
+            let reach = dp.norm().max(dq.norm()) + slack;
             let (u, v) = (sweep.dot(&p), sweep.dot(&q));
             items.push(Item {
                 ends,
@@ -155,7 +166,7 @@ impl Contours {
                     .fold(0.0, Real::max);
                 // Crossing edges are at a distance of rounding error.
                 let margin = 1e-9 * (a.q - a.p).norm().max((b.q - b.p).norm());
-                if gap.norm() <= relative + margin {
+                if gap.norm() <= relative + 2.0 * slack + margin {
                     return false;
                 }
             }

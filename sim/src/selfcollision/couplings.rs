@@ -22,6 +22,7 @@
 //! as in the response.
 
 use super::ccd::{Kind, closest};
+use super::plan::Plan;
 use super::topology::ClothMesh;
 use crate::math::{Real, Vec3};
 use crate::solver::Coupling;
@@ -51,19 +52,22 @@ pub struct Layers {
 
 impl Layers {
     /// Appends to `out` a coupling for every pair of `mesh` closer than
-    /// `thickness` at `x0`, in the hierarchy's fixed order, for a step of
-    /// `h` of particles of masses `mass`.
+    /// `thickness` at `x0`, in the hierarchy's fixed order (the `plan`'s
+    /// pairs if it holds), for a step of `h` of particles of masses
+    /// `mass`.
     pub fn couple(
         &mut self,
-        mesh: &mut ClothMesh,
+        (mesh, plan): (&mut ClothMesh, &Plan),
         x0: &[Vec3],
         thickness: Real,
         mass: &[Real],
         h: Real,
         out: &mut Vec<Coupling>,
     ) {
-        mesh.refit(x0, x0, thickness);
-        mesh.feature_pairs(&mut self.vf, &mut self.ee);
+        if !plan.pairs(mesh, (x0, x0), thickness, &mut self.vf, &mut self.ee) {
+            mesh.refit(x0, x0, thickness);
+            mesh.feature_pairs(&mut self.vf, &mut self.ee);
+        }
         for (kind, pairs) in [(Kind::VertexFace, &self.vf), (Kind::EdgeEdge, &self.ee)] {
             for &(a, b) in pairs {
                 let idx = mesh.particles(kind, a, b);
@@ -123,7 +127,8 @@ mod tests {
             .collect();
         let mut out = Vec::new();
         let h = 0.01;
-        Layers::default().couple(&mut mesh, &x0, thickness, &grid.mass, h, &mut out);
+        let plan = Plan::default();
+        Layers::default().couple((&mut mesh, &plan), &x0, thickness, &grid.mass, h, &mut out);
         assert!(!out.is_empty());
         let mut upper = std::collections::BTreeSet::new();
         for c in &out {

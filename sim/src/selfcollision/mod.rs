@@ -8,6 +8,7 @@
 //! | `topology` | the cloth's triangles and edges, their owners, swept boxes and hierarchy |
 //! | `cones` | bounds on a patch's normals over a step: which patches cannot meet themselves |
 //! | `contour` | and whose boundary, projected, stays simple |
+//! | `plan` | one descent at the step's start for every query of the step |
 //! | `couplings` | layers within the thickness held apart inside the solve |
 //! | `ccd` | continuous vertex–face and edge–edge tests |
 //! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |
@@ -28,6 +29,7 @@ mod couplings;
 mod crossings;
 mod geometry;
 mod impulse;
+mod plan;
 mod response;
 mod topology;
 
@@ -60,6 +62,7 @@ pub const FRICTION: Real = 0.3;
 #[derive(Debug, Clone)]
 pub struct SelfCollision {
     mesh: ClothMesh,
+    plan: plan::Plan,
     scratch: response::Scratch,
     layers: couplings::Layers,
     thickness: Real,
@@ -72,6 +75,7 @@ impl SelfCollision {
     pub fn new(grid: &Grid, thickness: Real) -> Self {
         Self {
             mesh: ClothMesh::new(grid),
+            plan: plan::Plan::default(),
             scratch: response::Scratch::default(),
             layers: couplings::Layers::default(),
             thickness,
@@ -87,10 +91,29 @@ impl SelfCollision {
 
     /// Before a step of `h`: appends a coupling for every pair of layers
     /// closer than the thickness at `x`, of lumped masses `mass`
-    /// (`couplings`).
-    pub fn couple(&mut self, x: &[Vec3], mass: &[Real], h: Real, out: &mut Vec<Coupling>) {
-        self.layers
-            .couple(&mut self.mesh, x, self.thickness, mass, h, out);
+    /// (`couplings`). With `last_moved` (the last step's motion), the
+    /// step's pairs are planned at `x` first (`plan`), for this and the
+    /// step's later queries; without, the plan is left as it is (queries
+    /// from other positions than its own do not use it).
+    pub fn couple(
+        &mut self,
+        x: &[Vec3],
+        mass: &[Real],
+        h: Real,
+        last_moved: Option<&[Vec3]>,
+        out: &mut Vec<Coupling>,
+    ) {
+        if let Some(moved) = last_moved {
+            self.plan.make(&mut self.mesh, x, self.thickness, moved);
+        }
+        self.layers.couple(
+            (&mut self.mesh, &self.plan),
+            x,
+            self.thickness,
+            mass,
+            h,
+            out,
+        );
     }
 
     /// Corrects one step's motion so the cloth does not pass through
@@ -118,6 +141,7 @@ impl SelfCollision {
             h,
             thickness: self.thickness,
             friction: FRICTION,
+            plan: &self.plan,
         };
         let report = self.scratch.resolve(&mut self.mesh, &motion, &mut self.u);
         let separation = self.scratch.separation();

@@ -35,6 +35,7 @@
 
 use super::ccd::{Closest, Kind, Moving, closest};
 use super::impulse::{Hold, Mobility, apply, relative};
+use super::plan::Plan;
 use super::topology::ClothMesh;
 use crate::math::{Mat3, Real, Vec3};
 
@@ -78,6 +79,8 @@ pub struct Motion<'a> {
     pub thickness: Real,
     /// Coulomb friction between layers.
     pub friction: Real,
+    /// The step's planned pairs.
+    pub plan: &'a Plan,
 }
 
 /// The buffers of the response, reused across steps.
@@ -95,6 +98,8 @@ pub struct Scratch {
     touched: Vec<bool>,
     /// How each particle yields to an impulse, this resolution.
     mobility: Vec<Mobility>,
+    /// Whether the last gather took the plan's pairs.
+    planned: bool,
 }
 
 impl Scratch {
@@ -137,7 +142,9 @@ impl Scratch {
         // the collision pad, they are every pair the collision test needs.
         let eta = COLLISION_PAD * m.thickness;
         self.end_positions(m, u);
-        let mut fresh = mesh.holds(&self.end, 0.5 * eta);
+        // A planned list is culled for the plan's bounds only: it serves
+        // the new paths if the plan holds for them (asked again below).
+        let mut fresh = !self.planned && mesh.holds(&self.end, 0.5 * eta);
         for _ in 0..COLLISION_SWEEPS {
             if !fresh {
                 self.gather(mesh, m, u, eta);
@@ -246,11 +253,17 @@ impl Scratch {
         &self.separation
     }
 
-    /// The pairs whose paths under `u` come within `pad`.
+    /// The pairs whose paths under `u` come within `pad`: the step's
+    /// planned ones if the plan holds for this motion (`super::plan`).
     fn gather(&mut self, mesh: &mut ClothMesh, m: &Motion<'_>, u: &[Vec3], pad: Real) {
         self.end_positions(m, u);
-        mesh.refit(m.x0, &self.end, pad);
-        mesh.feature_pairs(&mut self.vf, &mut self.ee);
+        self.planned = m
+            .plan
+            .pairs(mesh, (m.x0, &self.end), pad, &mut self.vf, &mut self.ee);
+        if !self.planned {
+            mesh.refit(m.x0, &self.end, pad);
+            mesh.feature_pairs(&mut self.vf, &mut self.ee);
+        }
     }
 
     fn end_positions(&mut self, m: &Motion<'_>, u: &[Vec3]) {

@@ -17,7 +17,7 @@
 //! cone shows they cannot meet themselves (`super::cones`).
 
 use super::cones::Cone;
-use super::contour::{self, Contours};
+use super::contour::{self, Contours, Sweep};
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh, BvhTask as Task};
 use crate::math::{Real, Vec3};
@@ -34,9 +34,9 @@ pub struct ClothMesh {
     pub edges: Vec<[u32; 2]>,
     /// The vertices and the edges each triangle owns.
     owned: Vec<Owned>,
-    tri_bvh: Bvh,
-    tri_boxes: Vec<Aabb>,
-    edge_boxes: Vec<Aabb>,
+    pub(super) tri_bvh: Bvh,
+    pub(super) tri_boxes: Vec<Aabb>,
+    pub(super) edge_boxes: Vec<Aabb>,
     /// Per hierarchy node, the cone of its patch's normals over the last
     /// refit's motion: a flat one cannot meet itself.
     cones: Vec<Cone>,
@@ -46,7 +46,9 @@ pub struct ClothMesh {
     pub vertex_boxes: Vec<Aabb>,
     /// Per hierarchy node, its boundary: a flat patch is culled only if
     /// its projected boundary stays simple.
-    contours: Contours,
+    pub(super) contours: Contours,
+    /// The shortest edge at rest.
+    pub(super) spacing: Real,
     contour_scratch: contour::Scratch,
     /// A gather's seeds and pieces (`ClothMesh::gather`), kept between
     /// steps.
@@ -122,7 +124,12 @@ impl ClothMesh {
             part.partition_point(|&t| key(t) < cut)
         });
         let contours = Contours::build(&tri_bvh, &triangles, &edges);
+        let spacing = edges
+            .iter()
+            .map(|e| (x[e[0] as usize] - x[e[1] as usize]).norm())
+            .fold(Real::INFINITY, Real::min);
         Self {
+            spacing,
             nu: grid.nu,
             tri_bvh,
             contours,
@@ -206,34 +213,36 @@ impl ClothMesh {
     /// Whether node `node`'s patch cannot meet itself over the last
     /// [`ClothMesh::refit`]'s motion (with `cull`; never without).
     fn flat(&self, cull: bool, node: usize, scratch: &mut contour::Scratch) -> bool {
+        let sweep = Sweep {
+            x0: &self.x0,
+            x1: &self.x1,
+            slack: 0.0,
+        };
         cull && self.cones.get(node).is_some_and(|c| {
             c.is_flat()
                 && self
                     .contours
-                    .simple(node, c.axis(), &self.edges, &self.x0, &self.x1, scratch)
+                    .simple(node, c.axis(), &self.edges, &sweep, scratch)
         })
     }
 
-    /// Every pair of distinct triangles whose boxes overlap, less (with
-    /// `cull`) the pairs inside patches that cannot meet themselves, each
+    /// Every pair of distinct triangles whose boxes overlap, less the
+    /// pairs inside patches that `flat` says cannot meet themselves, each
     /// handed to `body` with two lists to fill: on the team, a piece of
     /// the hierarchy's seeds per task (`Bvh::self_pair_seeds`). The pieces
     /// come back in seed order, so their lists one after another are what
     /// one descent would have filled, whatever the thread count.
-    fn gather(
+    pub(super) fn gather(
         &mut self,
-        cull: bool,
+        flat: impl Fn(&Self, usize, &mut contour::Scratch) -> bool + Sync,
         body: impl Fn(&Self, usize, usize, &mut Lists) + Sync,
     ) -> Vec<Piece> {
         let mut pieces = std::mem::take(&mut self.pieces);
         let mut seeds = std::mem::take(&mut self.seeds);
         let mut scratch = std::mem::take(&mut self.contour_scratch);
         let this = &*self;
-        this.tri_bvh.self_pair_seeds(
-            SEEDS,
-            |node| this.flat(cull, node, &mut scratch),
-            &mut seeds,
-        );
+        this.tri_bvh
+            .self_pair_seeds(SEEDS, |node| flat(this, node, &mut scratch), &mut seeds);
         let count = (parallel::threads() * 4).clamp(1, seeds.len().max(1));
         pieces.resize_with(count, Piece::default);
         for p in &mut pieces {
@@ -252,7 +261,7 @@ impl ClothMesh {
                 for &seed in group {
                     this.tri_bvh.self_pairs_under(
                         seed,
-                        &mut |node| this.flat(cull, node, scratch),
+                        &mut |node| flat(this, node, scratch),
                         stack,
                         &mut |s, t| body(this, s, t, lists),
                     );
@@ -305,38 +314,54 @@ impl ClothMesh {
     /// smaller), into `ee`: both in the hierarchy's fixed order, less the
     /// pairs inside patches that cannot meet themselves.
     pub fn feature_pairs(&mut self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) {
-        let pieces = self.gather(true, |m, s, t, out| {
-            let (os, ot) = (&m.owned[s], &m.owned[t]);
-            for (mine, tri) in [(os, t), (ot, s)] {
-                let corners = &m.triangles[tri];
-                for &v in mine.vertices.as_slice() {
-                    if !corners.contains(&v)
-                        && m.vertex_boxes[v as usize].overlaps(&m.tri_boxes[tri])
-                    {
-                        out.first.push((v, tri as u32));
-                    }
+        let pieces = self.gather(|m, node, s| m.flat(true, node, s), Self::feature_body);
+        self.join(pieces, vf, ee);
+    }
+
+    /// The vertex–triangle and edge–edge pairs of the features two
+    /// triangles `s` and `t` own, whose boxes overlap
+    /// ([`ClothMesh::feature_pairs`]).
+    pub(super) fn feature_body(&self, s: usize, t: usize, out: &mut Lists) {
+        let (os, ot) = (&self.owned[s], &self.owned[t]);
+        for (mine, tri) in [(os, t), (ot, s)] {
+            let corners = &self.triangles[tri];
+            for &v in mine.vertices.as_slice() {
+                if !corners.contains(&v)
+                    && self.vertex_boxes[v as usize].overlaps(&self.tri_boxes[tri])
+                {
+                    out.first.push((v, tri as u32));
                 }
             }
-            for &e in os.edges.as_slice() {
-                let [a0, a1] = m.edges[e as usize];
-                for &f in ot.edges.as_slice() {
-                    let [b0, b1] = m.edges[f as usize];
-                    if a0 != b0
-                        && a0 != b1
-                        && a1 != b0
-                        && a1 != b1
-                        && m.edge_boxes[e as usize].overlaps(&m.edge_boxes[f as usize])
-                    {
-                        out.second.push((e.min(f), e.max(f)));
-                    }
+        }
+        for &e in os.edges.as_slice() {
+            let [a0, a1] = self.edges[e as usize];
+            for &f in ot.edges.as_slice() {
+                let [b0, b1] = self.edges[f as usize];
+                if a0 != b0
+                    && a0 != b1
+                    && a1 != b0
+                    && a1 != b1
+                    && self.edge_boxes[e as usize].overlaps(&self.edge_boxes[f as usize])
+                {
+                    out.second.push((e.min(f), e.max(f)));
                 }
             }
-        });
-        vf.clear();
-        ee.clear();
+        }
+    }
+
+    /// The pieces' lists one after another into `first` and `second`;
+    /// the pieces kept for the next gather.
+    pub(super) fn join(
+        &mut self,
+        pieces: Vec<Piece>,
+        first: &mut Vec<(u32, u32)>,
+        second: &mut Vec<(u32, u32)>,
+    ) {
+        first.clear();
+        second.clear();
         for p in &pieces {
-            vf.extend_from_slice(&p.lists.first);
-            ee.extend_from_slice(&p.lists.second);
+            first.extend_from_slice(&p.lists.first);
+            second.extend_from_slice(&p.lists.second);
         }
         self.pieces = pieces;
     }
@@ -356,25 +381,24 @@ impl ClothMesh {
     /// with `cull`, less the pairs inside patches that the last
     /// [`ClothMesh::refit`] found cannot meet themselves.
     pub fn edge_face_pairs(&mut self, cull: bool, out: &mut Vec<(u32, u32)>) {
-        let pieces = self.gather(cull, |m, s, t, lists| {
-            for (owner, tri) in [(s, t), (t, s)] {
-                let corners = &m.triangles[tri];
-                for &e in m.owned[owner].edges.as_slice() {
-                    let [a0, a1] = m.edges[e as usize];
-                    if !corners.contains(&a0)
-                        && !corners.contains(&a1)
-                        && m.edge_boxes[e as usize].overlaps(&m.tri_boxes[tri])
-                    {
-                        lists.first.push((e, tri as u32));
+        let pieces = self.gather(
+            |m, node, s| m.flat(cull, node, s),
+            |m, s, t, lists| {
+                for (owner, tri) in [(s, t), (t, s)] {
+                    let corners = &m.triangles[tri];
+                    for &e in m.owned[owner].edges.as_slice() {
+                        let [a0, a1] = m.edges[e as usize];
+                        if !corners.contains(&a0)
+                            && !corners.contains(&a1)
+                            && m.edge_boxes[e as usize].overlaps(&m.tri_boxes[tri])
+                        {
+                            lists.first.push((e, tri as u32));
+                        }
                     }
                 }
-            }
-        });
-        out.clear();
-        for p in &pieces {
-            out.extend_from_slice(&p.lists.first);
-        }
-        self.pieces = pieces;
+            },
+        );
+        self.join(pieces, out, &mut Vec::new());
     }
 }
 
@@ -385,14 +409,14 @@ const SEEDS: usize = 64;
 
 /// Two lists of pairs a gather fills.
 #[derive(Debug, Clone, Default)]
-struct Lists {
+pub(super) struct Lists {
     first: Vec<(u32, u32)>,
     second: Vec<(u32, u32)>,
 }
 
 /// One task's share of a gather: its lists and scratch.
 #[derive(Debug, Clone, Default)]
-struct Piece {
+pub(super) struct Piece {
     lists: Lists,
     scratch: contour::Scratch,
     stack: Vec<Task>,

@@ -108,7 +108,7 @@ pub fn step(
             &mut clock,
             &frame,
             frame.time,
-            &run.state.x,
+            (&run.state.x, Some(&run.last_moved)),
         );
         clock.run(Stage::Assemble, || {
             ws.integrator.assemble_forces(
@@ -150,7 +150,7 @@ pub fn step(
                     &mut clock,
                     &frame,
                     frame.time + h,
-                    &run.state.x,
+                    (&run.state.x, None),
                 );
                 clock.run(Stage::Correct, || {
                     ws.integrator.correct(
@@ -292,7 +292,9 @@ fn update(
 
 /// The couplings stage: springs for cloth near obstacles' sharp features
 /// (their corners placed at `time`) and for layers of cloth closer than
-/// the thickness, the cloth at `x`, appended to the step's constraints.
+/// the thickness, the cloth at `x`, appended to the step's constraints;
+/// with the last step's motion, self-collision plans the step's pairs
+/// at `x` first (`selfcollision::plan`).
 fn couple(
     world: &World,
     (sharp, layers): (&mut Option<SharpStage>, &mut Option<SelfCollision>),
@@ -300,7 +302,7 @@ fn couple(
     clock: &mut StageClock,
     frame: &StepFrame<'_>,
     time: Real,
-    x: &[Vec3],
+    (x, last_moved): (&[Vec3], Option<&[Vec3]>),
 ) {
     if let (Some(sharp), Some(obstacles)) = (sharp, &world.obstacles) {
         clock.run(Stage::SharpFeatures, || {
@@ -309,7 +311,7 @@ fn couple(
     }
     if let Some(layers) = layers {
         clock.run(Stage::SelfCollision, || {
-            layers.couple(x, frame.mass, frame.h, couplings)
+            layers.couple(x, frame.mass, frame.h, last_moved, couplings)
         });
     }
 }

@@ -1,0 +1,278 @@
+//! A step's pairs planned once: one descent of the triangle hierarchy at
+//! the step's start serves every query of the step whose motion stays
+//! within the bounds it was planned for, instead of a refit with normal
+//! cones over each query's motion and a descent per query (the couplings
+//! before the solve, the proximity pass after it, the collision and zone
+//! passes when the response moves the cloth again).
+//!
+//! A plan at positions `x` holds every vertex–triangle and edge–edge pair
+//! a query from `x` could need if, over the query's motion,
+//!
+//! - no particle moves more than `reach` (so a feature's swept box grown
+//!   by the query's pad lies in its box at `x` grown by `pad / 2 + reach`),
+//! - no edge vector changes by more than `bend` (so each triangle's normal
+//!   stays in its cone at `x` widened by `asin(ρ / |n|)`,
+//!   `Cone::of_turning_triangle`), and no boundary point of a patch
+//!   strays from its place at `x` by more than `reach` (the contour test
+//!   with that slack, `contour::Sweep`).
+//!
+//! A patch flat under those bounds cannot meet itself in any such motion,
+//! so its pairs are left out; every other pair whose boxes overlap is in
+//! the plan. A query checks the bounds against its motion and takes the
+//! plan's pairs whose boxes overlap for that motion, in the plan's
+//! (hierarchy) order; out of bounds, it refits and descends as before.
+//!
+//! The bounds come from the last step's motion (`RunState::last_moved`,
+//! so a resumed run plans exactly as the uninterrupted one): twice its
+//! largest particle motion and edge change, and no plan at all when that
+//! exceeds [`REACH_SHARE`] or [`BEND_SHARE`] of the spacing (fast motion,
+//! where the widened cones would cull little and most steps would fall
+//! back anyway).
+
+use super::cones::Cone;
+use super::contour::Sweep;
+use super::topology::ClothMesh;
+use crate::math::{Real, Vec3};
+use crate::parallel;
+
+/// Largest `reach` planned for, as a share of the cloth's spacing.
+pub const REACH_SHARE: Real = 0.25;
+/// Largest `bend` planned for, as a share of the cloth's spacing: a
+/// triangle's normal then turns by at most about 15°.
+pub const BEND_SHARE: Real = 0.1;
+/// The bounds' margin over the last step's motion.
+const GROWTH: Real = 2.0;
+/// The bounds' floor, as a share of the pad (a cloth at rest).
+const FLOOR: Real = 0.01;
+
+/// The pairs planned at `base` for motions within `reach` and `bend`, and
+/// pads up to `pad`.
+#[derive(Debug, Clone, Default)]
+pub struct Plan {
+    base: Vec<Vec3>,
+    pad: Real,
+    reach: Real,
+    bend: Real,
+    /// Per triangle, then per hierarchy node, the cone of its normals
+    /// under the bounds.
+    tri_cones: Vec<Cone>,
+    cones: Vec<Cone>,
+    vf: Vec<(u32, u32)>,
+    ee: Vec<(u32, u32)>,
+    valid: bool,
+}
+
+/// How far a motion `moved` goes: the largest particle displacement and
+/// the largest change of an edge vector.
+pub fn extent(moved: &[Vec3], edges: &[[u32; 2]]) -> (Real, Real) {
+    let reach = moved.iter().map(|d| d.norm_squared()).fold(0.0, Real::max);
+    let bend = edges
+        .iter()
+        .map(|&[a, b]| (moved[b as usize] - moved[a as usize]).norm_squared())
+        .fold(0.0, Real::max);
+    (reach.sqrt(), bend.sqrt())
+}
+
+impl Plan {
+    /// Plans the pairs of `mesh` for queries from `x` with pads up to
+    /// `pad`, for a step after one that moved the cloth by `last_moved`;
+    /// no plan when that motion is too large (module doc). Returns
+    /// whether it planned.
+    pub fn make(
+        &mut self,
+        mesh: &mut ClothMesh,
+        x: &[Vec3],
+        pad: Real,
+        last_moved: &[Vec3],
+    ) -> bool {
+        self.valid = false;
+        if last_moved.len() != x.len() {
+            return false;
+        }
+        let (reach, bend) = extent(last_moved, &mesh.edges);
+        let floor = FLOOR * pad;
+        let (reach, bend) = (GROWTH * reach + floor, GROWTH * bend + floor);
+        if reach > REACH_SHARE * mesh.spacing || bend > BEND_SHARE * mesh.spacing {
+            return false;
+        }
+        self.base.clear();
+        self.base.extend_from_slice(x);
+        (self.pad, self.reach, self.bend) = (pad, reach, bend);
+        mesh.refit_boxes(x, x, pad + 2.0 * reach);
+        let triangles = &mesh.triangles;
+        self.tri_cones.resize(triangles.len(), Cone::WHOLE);
+        parallel::for_chunks_min(&mut self.tri_cones, parallel::ROWS_MIN, |start, cones| {
+            for (c, tri) in cones.iter_mut().zip(&triangles[start..]) {
+                *c = Cone::of_turning_triangle(tri.map(|k| &x[k as usize]), bend);
+            }
+        });
+        let tri_cones = &self.tri_cones;
+        mesh.tri_bvh.fold_up(
+            &mut self.cones,
+            |leaf| {
+                leaf.iter()
+                    .map(|&t| tri_cones[t as usize])
+                    .reduce(|a, b| a.merge(&b))
+                    .unwrap_or_default()
+            },
+            Cone::merge,
+        );
+        let (cones, sweep) = (
+            &self.cones,
+            Sweep {
+                x0: x,
+                x1: x,
+                slack: reach,
+            },
+        );
+        let pieces = mesh.gather(
+            |m, node, scratch| {
+                cones[node].is_flat()
+                    && m.contours
+                        .simple(node, cones[node].axis(), &m.edges, &sweep, scratch)
+            },
+            ClothMesh::feature_body,
+        );
+        mesh.join(pieces, &mut self.vf, &mut self.ee);
+        self.valid = true;
+        true
+    }
+
+    /// The pairs of `mesh` for the motion from `x0` to `x1` with pad
+    /// `pad`, as [`ClothMesh::feature_pairs`] after [`ClothMesh::refit`]
+    /// would list them, less pairs the plan shows cannot meet: from the
+    /// plan, if it was made at `x0` and holds for this motion and pad (the
+    /// mesh's boxes are then refitted to it, as `refit` would). Returns
+    /// whether it did.
+    pub fn pairs(
+        &self,
+        mesh: &mut ClothMesh,
+        (x0, x1): (&[Vec3], &[Vec3]),
+        pad: Real,
+        vf: &mut Vec<(u32, u32)>,
+        ee: &mut Vec<(u32, u32)>,
+    ) -> bool {
+        if !self.valid || pad > self.pad || x0 != self.base.as_slice() || x1.len() != x0.len() {
+            return false;
+        }
+        let within = |d: Vec3, bound: Real| d.norm_squared() <= bound * bound;
+        let moved = |k: usize| x1[k] - x0[k];
+        if !(0..x0.len()).all(|k| within(moved(k), self.reach))
+            || !mesh
+                .edges
+                .iter()
+                .all(|&[a, b]| within(moved(b as usize) - moved(a as usize), self.bend))
+        {
+            return false;
+        }
+        mesh.refit_boxes(x0, x1, pad);
+        let (vb, tb, eb) = (&mesh.vertex_boxes, &mesh.tri_boxes, &mesh.edge_boxes);
+        vf.clear();
+        vf.extend(
+            self.vf
+                .iter()
+                .filter(|&&(v, t)| vb[v as usize].overlaps(&tb[t as usize])),
+        );
+        ee.clear();
+        ee.extend(
+            self.ee
+                .iter()
+                .filter(|&&(e, f)| eb[e as usize].overlaps(&eb[f as usize])),
+        );
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng, rngs::StdRng};
+
+    /// A crumpled cloth and random motions within a plan's bounds: the
+    /// plan's pairs for each motion hold every pair a refit over that
+    /// motion finds, and a motion out of bounds is refused.
+    #[test]
+    fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
+        // A strip folded back over itself 0.1 spacings above, jittered.
+        let (nu, nv) = (16, 6);
+        let grid = crate::testing::flat_grid(nu, nv, [1.5, 0.5]);
+        let mut rng = StdRng::seed_from_u64(13);
+        let mut mesh = ClothMesh::new(&grid);
+        let s = mesh.spacing;
+        let x: Vec<Vec3> = (0..nu * nv)
+            .map(|k| {
+                let (i, j) = (k % nu, k / nu);
+                let (u, z) = if i < nu / 2 {
+                    (i as Real, 0.0)
+                } else {
+                    ((nu - 1 - i) as Real + 0.3, 0.1)
+                };
+                let jitter = Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                ) * 0.05;
+                (Vec3::new(u, j as Real, z) + jitter) * s
+            })
+            .collect();
+        let pad = 0.2 * mesh.spacing;
+        let step = 0.015 * mesh.spacing;
+        let last: Vec<Vec3> = (0..x.len())
+            .map(|_| Vec3::new(rng.random_range(-1.0..1.0), 0.0, 0.0) * step)
+            .collect();
+        let mut plan = Plan::default();
+        assert!(plan.make(&mut mesh, &x, pad, &last));
+        let (reach, bend) = (plan.reach, plan.bend);
+        let (mut vf, mut ee, mut vf1, mut ee1) = (vec![], vec![], vec![], vec![]);
+        let mut compared = 0;
+        for round in 0..20 {
+            // Each particle moves within `reach`, and neighbours within
+            // `bend` of each other: a common drift plus a small part.
+            let drift = Vec3::new(0.6, -0.3, 0.5).normalize() * (0.5 * reach);
+            let x1: Vec<Vec3> = x
+                .iter()
+                .map(|p| {
+                    let own = Vec3::new(
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                    ) * (0.25 * bend.min(reach));
+                    p + drift + own
+                })
+                .collect();
+            let p = if round % 2 == 0 { pad } else { 0.05 * pad };
+            assert!(plan.pairs(&mut mesh, (&x, &x1), p, &mut vf, &mut ee));
+            mesh.refit(&x, &x1, p);
+            mesh.feature_pairs(&mut vf1, &mut ee1);
+            for pair in &vf1 {
+                assert!(vf.contains(pair), "vertex-face {pair:?} missing");
+            }
+            for pair in &ee1 {
+                assert!(ee.contains(pair), "edge-edge {pair:?} missing");
+            }
+            compared += vf1.len() + ee1.len();
+        }
+        assert!(compared > 100, "only {compared} pairs compared");
+        // Out of bounds: a particle moved by twice the reach.
+        let mut far = x.clone();
+        far[5].z += 2.0 * reach;
+        assert!(!plan.pairs(&mut mesh, (&x, &far), pad, &mut vf, &mut ee));
+        // A larger pad, or another start, is refused too.
+        assert!(!plan.pairs(&mut mesh, (&x, &x), 2.0 * pad, &mut vf, &mut ee));
+        assert!(!plan.pairs(&mut mesh, (&far, &far), pad, &mut vf, &mut ee));
+    }
+
+    /// A flat cloth at rest is planned with no pair at all; a motion too
+    /// large is not planned.
+    #[test]
+    fn a_flat_cloth_plans_nothing_and_fast_motion_is_not_planned() {
+        let grid = crate::testing::flat_grid(20, 20, [1.0, 1.0]);
+        let mut mesh = ClothMesh::new(&grid);
+        let rest = vec![Vec3::zeros(); grid.len()];
+        let mut plan = Plan::default();
+        assert!(plan.make(&mut mesh, &grid.rest, 0.005, &rest));
+        assert!(plan.vf.is_empty() && plan.ee.is_empty());
+        let fast = vec![Vec3::new(0.0, 0.0, 0.2 * mesh.spacing); grid.len()];
+        assert!(!plan.make(&mut mesh, &grid.rest, 0.005, &fast));
+    }
+}
