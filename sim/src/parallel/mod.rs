@@ -15,15 +15,18 @@
 //! `drapery --threads`, `DRAPERY_THREADS`; default every core), or one of
 //! a caller's own ([`with_threads`]). A loop started inside another
 //! loop's task, or while another job (in the service) has the team, runs
-//! on its own thread.
+//! on its own thread; so do a run's loops while its [`Tuner`] measured
+//! them faster alone.
 
 mod team;
+mod tuner;
 
 use std::cell::RefCell;
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
 pub use team::Team;
+pub use tuner::Tuner;
 
 use crate::math::{Real, Vec3};
 

@@ -79,6 +79,20 @@ thread_local! {
     /// Whether this thread is running an index of a job: a loop inside a
     /// task runs on its thread alone.
     static INSIDE: Cell<bool> = const { Cell::new(false) };
+    /// Whether this thread's loops run alone, helpers or not
+    /// (`super::Tuner`).
+    static ALONE: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Makes this thread's loops run alone (`true`) or shared again.
+pub fn set_alone(alone: bool) {
+    ALONE.set(alone);
+}
+
+/// Whether this thread's loops run alone ([`set_alone`]).
+#[cfg(test)]
+pub fn alone() -> bool {
+    ALONE.get()
 }
 
 impl Team {
@@ -120,9 +134,10 @@ impl Team {
     }
 
     /// Whether a loop started here now would be shared: the team has
-    /// helpers and this thread is not already inside a task.
+    /// helpers, this thread is not already inside a task, and its loops
+    /// are not set to run alone.
     pub fn can_share(&self) -> bool {
-        !self.threads.is_empty() && !INSIDE.get()
+        !self.threads.is_empty() && !INSIDE.get() && !ALONE.get()
     }
 
     /// Runs `task(i)` for every `i` in `0..count`, on the caller and the

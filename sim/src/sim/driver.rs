@@ -90,6 +90,15 @@ pub struct Driver<'a> {
 }
 
 impl Driver<'_> {
+    /// One step of `h`, its loops shared or alone as the tuner says
+    /// (`parallel::Tuner`: the same results either way).
+    fn step(&mut self, h: Real) -> Result<super::step::StepReport, SimError> {
+        self.ws.tuner.begin();
+        let result = step(self.world, self.run, self.ws, h);
+        self.ws.tuner.end();
+        result
+    }
+
     /// Steps over one frame interval (the caller lands the time exactly
     /// on the frame).
     pub fn advance_frame(&mut self, control: &Control<'_>) -> Result<FrameAccumulator, SimError> {
@@ -127,7 +136,7 @@ impl Driver<'_> {
         if may_halve {
             self.ws.save(depth as usize, self.run);
         }
-        let r = step(self.world, self.run, self.ws, h)?;
+        let r = self.step(h)?;
         let after = stretch.max_ratio(&self.run.state.x);
         if may_halve && after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP {
             self.ws.restore(depth as usize, self.run);
@@ -174,7 +183,7 @@ impl Driver<'_> {
             let h = frame_dt / (1u64 << self.run.level) as Real;
             let share = error * h / frame_dt;
             self.ws.save(0, self.run);
-            let result = step(self.world, self.run, self.ws, h);
+            let result = self.step(h);
             let ok = match &result {
                 Ok(r) => {
                     r.solve.status == SolveStatus::Converged

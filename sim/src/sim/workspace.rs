@@ -35,6 +35,8 @@ pub struct Workspace {
     pub apart: ApartScratch,
     /// The sharp-feature stage (`None` when no obstacle has features).
     pub sharp: Option<SharpStage>,
+    /// Whether the steps' loops run faster shared or alone.
+    pub tuner: crate::parallel::Tuner,
 }
 
 impl Workspace {
@@ -70,6 +72,7 @@ impl Workspace {
                 .then(|| ClothMesh::new(&world.grid)),
             apart: ApartScratch::default(),
             sharp: SharpStage::new(&world.grid, spring, world.obstacles.as_ref()),
+            tuner: crate::parallel::Tuner::default(),
         }
     }
 
