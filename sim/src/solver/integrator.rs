@@ -44,12 +44,15 @@ pub const PREDICTOR_SHARE: Real = 10.0;
 
 /// Under [`StoppingRule::Error`], the share of the local error BDF2's
 /// corrected solve may leave. Measured on hanging-corners at 1/120 s
-/// (error RMS of the diagonal over 1.5 s, CG iterations): a share of 1
-/// gave 2.40 % for 1,743, 0.3 gave 2.01 % for 2,585, 0.1 gave 2.01 % for
-/// 3,171; on the swinging cloth of `sim/tests/stopping.rs` a share of 1
-/// left a solver error of half the step's time error, 0.3 a sixth. (The
-/// whip of the free edge makes hanging-corners' error jump by tenths of a
-/// percent with any perturbation, so its 2.0-2.4 % are one level.)
+/// (error RMS of the diagonal over 1.5 s against BDF2 at 1/1920 s, CG
+/// iterations; docs/benchmarks.md, sections 1d and 1o): a share of 0.3
+/// gives 2.96 % for 2,341, 0.1 gave 2.59 % for 2,930 (a tight solve:
+/// 2.28 %), but the stress suite's crumpled cloth over a sphere, run
+/// under BDF2, then stretched 11.8 % (0.2: 11.0 %, 0.15: 14.5 %) where
+/// 0.3 keeps it at 8.6 %, inside the suite's 10 %. On the swinging cloth
+/// of `sim/tests/stopping.rs` 0.3 leaves a sixth of BDF2's time error.
+/// (The whip of the free edge makes hanging-corners' error jump by
+/// tenths of a percent with any perturbation.)
 pub const CORRECTION_SHARE: Real = 0.3;
 
 /// A step that produced non-finite numbers.
