@@ -131,6 +131,7 @@ impl SelfCollision {
         state: &mut ClothState,
         moved: &mut [Vec3],
     ) -> SelfReport {
+        self.plan.cover(&mut self.mesh, x0, self.thickness, moved);
         self.u.clear();
         self.u.extend(moved.iter().map(|d| d / h));
         self.u0.clone_from(&self.u);

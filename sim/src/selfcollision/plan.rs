@@ -26,8 +26,12 @@
 //! so a resumed run plans exactly as the uninterrupted one): twice its
 //! largest particle motion and edge change, and no plan at all when that
 //! exceeds [`REACH_SHARE`] or [`BEND_SHARE`] of the spacing (fast motion,
-//! where the widened cones would cull little and most steps would fall
-//! back anyway).
+//! where the widened cones would cull little). When that plan does not
+//! hold for the solve's motion, the response plans again from the step's
+//! start with [`RESPONSE_GROWTH`] times the solve's own motion
+//! ([`Plan::cover`]): the proximity pass and the collision passes after
+//! it then share one descent, and a collision pass after impulses gets
+//! pairs culled for its own motion, not for the solve's.
 
 use super::cones::Cone;
 use super::contour::Sweep;
@@ -42,8 +46,15 @@ pub const REACH_SHARE: Real = 0.25;
 pub const BEND_SHARE: Real = 0.1;
 /// The bounds' margin over the last step's motion.
 const GROWTH: Real = 2.0;
+/// The bounds' margin over a solve's motion, for its response: the
+/// response's impulses change it by a fraction.
+pub const RESPONSE_GROWTH: Real = 1.25;
 /// The bounds' floor, as a share of the pad (a cloth at rest).
 const FLOOR: Real = 0.01;
+/// The planned boxes' margin over the bounds, as a share of the spacing:
+/// far above the round-off of a query's box, far below any distance the
+/// response acts on.
+const ROUNDING: Real = 1e-9;
 
 /// The pairs planned at `base` for motions within `reach` and `bend`, and
 /// pads up to `pad`.
@@ -85,20 +96,60 @@ impl Plan {
         pad: Real,
         last_moved: &[Vec3],
     ) -> bool {
+        self.make_around(mesh, x, pad, last_moved, GROWTH)
+    }
+
+    /// Plans for the response of a step whose solve moved the cloth from
+    /// `x` by `moved`, unless the step's plan already holds for that
+    /// motion: the proximity pass takes its pairs, and so do the collision
+    /// and zone passes while their impulses keep the motion within
+    /// [`RESPONSE_GROWTH`] of the solve's (module doc).
+    pub fn cover(&mut self, mesh: &mut ClothMesh, x: &[Vec3], pad: Real, moved: &[Vec3]) {
+        let held = self.valid
+            && pad <= self.pad
+            && x == self.base.as_slice()
+            && self.within(mesh, moved.len(), |k| moved[k]);
+        if !held {
+            self.make_around(mesh, x, pad, moved, RESPONSE_GROWTH);
+        }
+    }
+
+    /// Whether a motion of `n` particles, `moved(k)` each, keeps within
+    /// the bounds.
+    fn within(&self, mesh: &ClothMesh, n: usize, moved: impl Fn(usize) -> Vec3) -> bool {
+        let inside = |d: Vec3, bound: Real| d.norm_squared() <= bound * bound;
+        n == self.base.len()
+            && (0..n).all(|k| inside(moved(k), self.reach))
+            && mesh
+                .edges
+                .iter()
+                .all(|&[a, b]| inside(moved(b as usize) - moved(a as usize), self.bend))
+    }
+
+    /// Plans for motions up to `growth` times `motion`'s extent.
+    fn make_around(
+        &mut self,
+        mesh: &mut ClothMesh,
+        x: &[Vec3],
+        pad: Real,
+        motion: &[Vec3],
+        growth: Real,
+    ) -> bool {
         self.valid = false;
-        if last_moved.len() != x.len() {
+        if motion.len() != x.len() {
             return false;
         }
-        let (reach, bend) = extent(last_moved, &mesh.edges);
+        let (reach, bend) = extent(motion, &mesh.edges);
         let floor = FLOOR * pad;
-        let (reach, bend) = (GROWTH * reach + floor, GROWTH * bend + floor);
+        let (reach, bend) = (growth * reach + floor, growth * bend + floor);
         if reach > REACH_SHARE * mesh.spacing || bend > BEND_SHARE * mesh.spacing {
             return false;
         }
         self.base.clear();
         self.base.extend_from_slice(x);
         (self.pad, self.reach, self.bend) = (pad, reach, bend);
-        mesh.refit_boxes(x, x, pad + 2.0 * reach);
+        // A hair more than the bounds: a query box, rounded, stays inside.
+        mesh.refit_boxes(x, x, pad + 2.0 * reach + ROUNDING * mesh.spacing);
         let triangles = &mesh.triangles;
         self.tri_cones.resize(triangles.len(), Cone::WHOLE);
         parallel::for_chunks_min(&mut self.tri_cones, parallel::ROWS_MIN, |start, cones| {
@@ -142,8 +193,10 @@ impl Plan {
     /// `pad`, as [`ClothMesh::feature_pairs`] after [`ClothMesh::refit`]
     /// would list them, less pairs the plan shows cannot meet: from the
     /// plan, if it was made at `x0` and holds for this motion and pad (the
-    /// mesh's boxes are then refitted to it, as `refit` would). Returns
-    /// whether it did.
+    /// mesh's vertex boxes are then refitted to it, as `refit` would; a
+    /// pair's triangle and edge boxes are the unions of its vertices'
+    /// boxes, formed here for the planned pairs alone). Returns whether it
+    /// did.
     pub fn pairs(
         &self,
         mesh: &mut ClothMesh,
@@ -152,33 +205,32 @@ impl Plan {
         vf: &mut Vec<(u32, u32)>,
         ee: &mut Vec<(u32, u32)>,
     ) -> bool {
-        if !self.valid || pad > self.pad || x0 != self.base.as_slice() || x1.len() != x0.len() {
-            return false;
-        }
-        let within = |d: Vec3, bound: Real| d.norm_squared() <= bound * bound;
-        let moved = |k: usize| x1[k] - x0[k];
-        if !(0..x0.len()).all(|k| within(moved(k), self.reach))
-            || !mesh
-                .edges
-                .iter()
-                .all(|&[a, b]| within(moved(b as usize) - moved(a as usize), self.bend))
+        if !self.valid
+            || pad > self.pad
+            || x0 != self.base.as_slice()
+            || x1.len() != x0.len()
+            || !self.within(mesh, x0.len(), |k| x1[k] - x0[k])
         {
             return false;
         }
-        mesh.refit_boxes(x0, x1, pad);
-        let (vb, tb, eb) = (&mesh.vertex_boxes, &mesh.tri_boxes, &mesh.edge_boxes);
+        mesh.fit_vertex_boxes(x0, x1, pad);
+        let vb = &mesh.vertex_boxes;
+        let tri = |t: u32| {
+            let [a, b, c] = mesh.triangles[t as usize].map(|k| &vb[k as usize]);
+            a.union(b).union(c)
+        };
+        let edge = |e: u32| {
+            let [a, b] = mesh.edges[e as usize].map(|k| &vb[k as usize]);
+            a.union(b)
+        };
         vf.clear();
         vf.extend(
             self.vf
                 .iter()
-                .filter(|&&(v, t)| vb[v as usize].overlaps(&tb[t as usize])),
+                .filter(|&&(v, t)| vb[v as usize].overlaps(&tri(t))),
         );
         ee.clear();
-        ee.extend(
-            self.ee
-                .iter()
-                .filter(|&&(e, f)| eb[e as usize].overlaps(&eb[f as usize])),
-        );
+        ee.extend(self.ee.iter().filter(|&&(e, f)| edge(e).overlaps(&edge(f))));
         true
     }
 }
@@ -260,6 +312,20 @@ mod tests {
         // A larger pad, or another start, is refused too.
         assert!(!plan.pairs(&mut mesh, (&x, &x), 2.0 * pad, &mut vf, &mut ee));
         assert!(!plan.pairs(&mut mesh, (&far, &far), pad, &mut vf, &mut ee));
+        // The response covers a motion the plan did not: planned again
+        // around it, its pairs hold a refit's.
+        let moved: Vec<Vec3> = far.iter().zip(&x).map(|(a, b)| a - b).collect();
+        plan.cover(&mut mesh, &x, pad, &moved);
+        assert!(plan.reach >= 2.0 * reach, "planned around the new motion");
+        assert!(plan.pairs(&mut mesh, (&x, &far), pad, &mut vf, &mut ee));
+        mesh.refit(&x, &far, pad);
+        mesh.feature_pairs(&mut vf1, &mut ee1);
+        assert!(vf1.iter().all(|p| vf.contains(p)) && ee1.iter().all(|p| ee.contains(p)));
+        // A motion the plan holds keeps it.
+        let before = plan.reach;
+        let half: Vec<Vec3> = moved.iter().map(|d| d * 0.5).collect();
+        plan.cover(&mut mesh, &x, pad, &half);
+        assert_eq!(plan.reach, before);
     }
 
     /// A flat cloth at rest is planned with no pair at all; a motion too

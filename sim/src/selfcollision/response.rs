@@ -136,15 +136,18 @@ impl Scratch {
         u: &mut [Vec3],
         report: &mut SelfReport,
     ) {
+        let before = report.contacts;
         self.proximity(mesh, m, inv_mass, u, report);
         // The proximity pass's pairs were gathered with the thickness as
-        // pad; while every particle's new path stays inside its box less
-        // the collision pad, they are every pair the collision test needs.
+        // pad over the solve's motion: they are every pair the collision
+        // test needs if that pass changed no velocity. Otherwise they are
+        // gathered again: boxes that still hold the new paths would do,
+        // but the patches culled as flat were culled for the old motion,
+        // and a patch flat over it need not be over the new one. (A
+        // planned list is culled for the plan's bounds, and the gather
+        // asks the plan again for the new paths.)
         let eta = COLLISION_PAD * m.thickness;
-        self.end_positions(m, u);
-        // A planned list is culled for the plan's bounds only: it serves
-        // the new paths if the plan holds for them (asked again below).
-        let mut fresh = !self.planned && mesh.holds(&self.end, 0.5 * eta);
+        let mut fresh = !self.planned && report.contacts == before;
         for _ in 0..COLLISION_SWEEPS {
             if !fresh {
                 self.gather(mesh, m, u, eta);

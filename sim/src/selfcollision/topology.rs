@@ -186,12 +186,8 @@ impl ClothMesh {
     /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
     /// cull nothing.
     pub fn refit_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
+        self.fit_vertex_boxes(x0, x1, pad);
         let min = 4 * parallel::ROWS_MIN;
-        parallel::for_chunks_min(&mut self.vertex_boxes, min, |start, boxes| {
-            for (k, b) in boxes.iter_mut().enumerate() {
-                *b = Aabb::of_segment(&x0[start + k], &x1[start + k]).grown(0.5 * pad);
-            }
-        });
         let vb = &self.vertex_boxes;
         let triangles = &self.triangles;
         parallel::for_chunks_min(&mut self.tri_boxes, min, |start, boxes| {
@@ -208,6 +204,22 @@ impl ClothMesh {
             }
         });
         self.tri_bvh.refit(&self.tri_boxes);
+    }
+
+    /// Each vertex's box over the motion from `x0` to `x1`, grown by `pad`
+    /// on every side (the first part of [`ClothMesh::refit_boxes`]; the
+    /// triangles' and edges' boxes and the hierarchy are left as they
+    /// were, for the next refit to set).
+    pub(super) fn fit_vertex_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
+        parallel::for_chunks_min(
+            &mut self.vertex_boxes,
+            4 * parallel::ROWS_MIN,
+            |start, boxes| {
+                for (k, b) in boxes.iter_mut().enumerate() {
+                    *b = Aabb::of_segment(&x0[start + k], &x1[start + k]).grown(0.5 * pad);
+                }
+            },
+        );
     }
 
     /// Whether node `node`'s patch cannot meet itself over the last
@@ -364,16 +376,6 @@ impl ClothMesh {
             second.extend_from_slice(&p.lists.second);
         }
         self.pieces = pieces;
-    }
-
-    /// Whether every vertex box holds `x` with `margin` to spare: pairs
-    /// gathered from these boxes then include every pair of the motion
-    /// from `x0` to `x` within `2 margin`.
-    pub fn holds(&self, x: &[Vec3], margin: Real) -> bool {
-        self.vertex_boxes
-            .iter()
-            .zip(x)
-            .all(|(b, p)| b.grown(-margin).contains(p))
     }
 
     /// Every edge–triangle pair with overlapping boxes that share no
