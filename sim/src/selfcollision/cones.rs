@@ -22,6 +22,7 @@
 //!
 //! The boundary condition is `super::contour`'s.
 
+use crate::collision::Bvh;
 use crate::math::{Real, Vec3};
 
 /// Largest half-angle of a patch's cone for its self-test to be skipped:
@@ -173,6 +174,22 @@ impl Cone {
         };
         Self::about(axis, reach(self).min(reach(o)))
     }
+}
+
+/// Each node's cone of `bvh`, from its triangles' cones `tri_cones`, into
+/// `out` (numbered as by [`Bvh::fold_up`]): a leaf's merged from its
+/// triangles', an inner node's from its children's.
+pub fn fold(bvh: &Bvh, tri_cones: &[Cone], out: &mut Vec<Cone>) {
+    bvh.fold_up(
+        out,
+        |leaf| {
+            leaf.iter()
+                .map(|&t| tri_cones[t as usize])
+                .reduce(|a, b| a.merge(&b))
+                .unwrap_or_default()
+        },
+        Cone::merge,
+    );
 }
 
 #[cfg(test)]

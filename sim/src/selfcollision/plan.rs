@@ -1,39 +1,50 @@
-//! A step's pairs planned once: one descent of the triangle hierarchy at
-//! the step's start serves every query of the step whose motion stays
-//! within the bounds it was planned for, instead of a refit with normal
-//! cones over each query's motion and a descent per query (the couplings
-//! before the solve, the proximity pass after it, the collision and zone
-//! passes when the response moves the cloth again).
+//! Pairs planned for several steps: one descent of the triangle
+//! hierarchy serves every query whose motion stays within the bounds it
+//! was planned for, instead of a refit with normal cones over each
+//! query's motion and a descent per query (the couplings before the
+//! solve, the proximity pass after it, the collision and zone passes when
+//! the response moves the cloth again), and while the cloth moves slowly,
+//! the queries of the steps after it too.
 //!
-//! A plan at positions `x` holds every vertex–triangle and edge–edge pair
-//! a query from `x` could need if, over the query's motion,
+//! A plan at positions `base` holds every vertex–triangle and edge–edge
+//! pair a query over a motion from `x0` to `x1` could need if, at both
+//! ends (and so, the bounds being convex, all along the straight paths
+//! between them),
 //!
-//! - no particle moves more than `reach` (so a feature's swept box grown
-//!   by the query's pad lies in its box at `x` grown by `pad / 2 + reach`),
-//! - no edge vector changes by more than `bend` (so each triangle's normal
-//!   stays in its cone at `x` widened by `asin(ρ / |n|)`,
-//!   `Cone::of_turning_triangle`), and no boundary point of a patch
-//!   strays from its place at `x` by more than `reach` (the contour test
-//!   with that slack, `contour::Sweep`).
+//! - no particle is more than `reach` from its place in `base` (so a
+//!   feature's swept box grown by the query's pad lies in its box at
+//!   `base` grown by `pad / 2 + reach`),
+//! - no edge vector differs by more than `bend` from its value in `base`
+//!   (so each triangle's normal stays in its cone at `base` widened by
+//!   `asin(ρ / |n|)`, `Cone::of_turning_triangle`), and no boundary point
+//!   of a patch strays from its place in `base` by more than `reach` (the
+//!   contour test with that slack, `contour::Sweep`).
 //!
 //! A patch flat under those bounds cannot meet itself in any such motion,
 //! so its pairs are left out; every other pair whose boxes overlap is in
 //! the plan. A query checks the bounds against its motion and takes the
 //! plan's pairs whose boxes overlap for that motion, in the plan's
 //! (hierarchy) order; out of bounds, it refits and descends as before.
+//! The pairs a query acts on are the same whichever plan it takes them
+//! from (the hierarchy's order is fixed, and a culled patch holds no pair
+//! that acts), so when a plan is made does not change the frames, and a
+//! resumed run, which makes a new one, continues exactly.
 //!
-//! The bounds come from the last step's motion (`RunState::last_moved`,
-//! so a resumed run plans exactly as the uninterrupted one): twice its
-//! largest particle motion and edge change, and no plan at all when that
-//! exceeds [`REACH_SHARE`] or [`BEND_SHARE`] of the spacing (fast motion,
-//! where the widened cones would cull little). When that plan does not
-//! hold for the solve's motion, the response plans again from the step's
-//! start with [`RESPONSE_GROWTH`] times the solve's own motion
-//! ([`Plan::cover`]): the proximity pass and the collision passes after
-//! it then share one descent, and a collision pass after impulses gets
-//! pairs culled for its own motion, not for the solve's.
+//! At a step's start the plan is kept if the cloth, moving [`GROWTH`]
+//! times as far as in the last step (`RunState::last_moved`), stays
+//! within its bounds; otherwise it is made again at the step's start
+//! positions for [`AHEAD`] such steps: bounds `AHEAD` times twice the
+//! last step's largest particle motion and edge change, capped at
+//! [`REACH_SHARE`] and [`BEND_SHARE`] of the spacing, and no plan at all
+//! when even one step's exceeds the caps (fast motion, where the widened
+//! cones would cull little). When the plan does not hold for the solve's
+//! motion, the response plans again from the step's start with
+//! [`RESPONSE_GROWTH`] times the solve's own motion ([`Plan::cover`]):
+//! the proximity pass and the collision passes after it then share one
+//! descent, and a collision pass after impulses gets pairs culled for its
+//! own motion, not for the solve's.
 
-use super::cones::Cone;
+use super::cones::{self, Cone};
 use super::contour::Sweep;
 use super::topology::ClothMesh;
 use crate::math::{Real, Vec3};
@@ -44,8 +55,13 @@ pub const REACH_SHARE: Real = 0.25;
 /// Largest `bend` planned for, as a share of the cloth's spacing: a
 /// triangle's normal then turns by at most about 15°.
 pub const BEND_SHARE: Real = 0.1;
-/// The bounds' margin over the last step's motion.
+/// The bounds' margin over the last step's motion, for one step.
 const GROWTH: Real = 2.0;
+/// Steps of motion a plan is made for. Larger bounds keep more pairs
+/// (each query filters them) and widen the cones (fewer patches culled);
+/// measured on sphere-drape-30, one thread (callgrind, instructions of
+/// the whole run): see docs/benchmarks.md 1p.
+const AHEAD: Real = 4.0;
 /// The bounds' margin over a solve's motion, for its response: the
 /// response's impulses change it by a fraction.
 pub const RESPONSE_GROWTH: Real = 1.25;
@@ -85,10 +101,11 @@ pub fn extent(moved: &[Vec3], edges: &[[u32; 2]]) -> (Real, Real) {
 }
 
 impl Plan {
-    /// Plans the pairs of `mesh` for queries from `x` with pads up to
-    /// `pad`, for a step after one that moved the cloth by `last_moved`;
-    /// no plan when that motion is too large (module doc). Returns
-    /// whether it planned.
+    /// Plans the pairs of `mesh` for the queries of a step from `x` with
+    /// pads up to `pad`, after a step that moved the cloth by
+    /// `last_moved`: the plan is kept if it holds for [`GROWTH`] times
+    /// that motion from `x`, else made again at `x`; no plan when that
+    /// motion is too large (module doc). Returns whether there is a plan.
     pub fn make(
         &mut self,
         mesh: &mut ClothMesh,
@@ -96,37 +113,66 @@ impl Plan {
         pad: Real,
         last_moved: &[Vec3],
     ) -> bool {
-        self.make_around(mesh, x, pad, last_moved, GROWTH)
+        let kept = self.valid
+            && pad <= self.pad
+            && last_moved.len() == x.len()
+            && self.within(
+                mesh,
+                x.len(),
+                |k| x[k] - self.base[k],
+                |k| last_moved[k] * GROWTH,
+            );
+        kept || self.make_around(mesh, x, pad, last_moved, GROWTH)
     }
 
     /// Plans for the response of a step whose solve moved the cloth from
-    /// `x` by `moved`, unless the step's plan already holds for that
-    /// motion: the proximity pass takes its pairs, and so do the collision
-    /// and zone passes while their impulses keep the motion within
+    /// `x` by `moved`, unless the plan already holds for that motion: the
+    /// proximity pass takes its pairs, and so do the collision and zone
+    /// passes while their impulses keep the motion within
     /// [`RESPONSE_GROWTH`] of the solve's (module doc).
     pub fn cover(&mut self, mesh: &mut ClothMesh, x: &[Vec3], pad: Real, moved: &[Vec3]) {
-        let held = self.valid
-            && pad <= self.pad
-            && x == self.base.as_slice()
-            && self.within(mesh, moved.len(), |k| moved[k]);
+        let held = self.valid && pad <= self.pad && self.holds(mesh, x, |k| x[k] + moved[k]);
         if !held {
             self.make_around(mesh, x, pad, moved, RESPONSE_GROWTH);
         }
     }
 
-    /// Whether a motion of `n` particles, `moved(k)` each, keeps within
-    /// the bounds.
-    fn within(&self, mesh: &ClothMesh, n: usize, moved: impl Fn(usize) -> Vec3) -> bool {
-        let inside = |d: Vec3, bound: Real| d.norm_squared() <= bound * bound;
-        n == self.base.len()
-            && (0..n).all(|k| inside(moved(k), self.reach))
-            && mesh
-                .edges
-                .iter()
-                .all(|&[a, b]| inside(moved(b as usize) - moved(a as usize), self.bend))
+    /// Whether the motion from `x0` to `x1(k)` keeps within the bounds:
+    /// both ends, and so the straight paths between them.
+    fn holds(&self, mesh: &ClothMesh, x0: &[Vec3], x1: impl Fn(usize) -> Vec3) -> bool {
+        let zero = |_| Vec3::zeros();
+        x0.len() == self.base.len()
+            && (x0 == self.base.as_slice()
+                || self.within(mesh, x0.len(), |k| x0[k] - self.base[k], zero))
+            && self.within(mesh, x0.len(), |k| x1(k) - self.base[k], zero)
     }
 
-    /// Plans for motions up to `growth` times `motion`'s extent.
+    /// Whether particles `n` away from the base by `off(k)` each, and
+    /// moving by up to `ahead(k)` further, keep within the bounds.
+    fn within(
+        &self,
+        mesh: &ClothMesh,
+        n: usize,
+        off: impl Fn(usize) -> Vec3,
+        ahead: impl Fn(usize) -> Vec3,
+    ) -> bool {
+        // |d| + |a| <= bound, without square roots: implied by
+        // 2 (|d|² + |a|²) <= bound² (a little stricter when both count).
+        let inside = |d: Vec3, a: Vec3, bound: Real| {
+            let (d, a) = (d.norm_squared(), a.norm_squared());
+            let scale = if a == 0.0 { 1.0 } else { 2.0 };
+            scale * (d + a) <= bound * bound
+        };
+        n == self.base.len()
+            && (0..n).all(|k| inside(off(k), ahead(k), self.reach))
+            && mesh.edges.iter().all(|&[a, b]| {
+                let (a, b) = (a as usize, b as usize);
+                inside(off(b) - off(a), ahead(b) - ahead(a), self.bend)
+            })
+    }
+
+    /// Plans at `x` for [`AHEAD`] motions up to `growth` times `motion`'s
+    /// extent, within the caps; no plan if one such motion exceeds them.
     fn make_around(
         &mut self,
         mesh: &mut ClothMesh,
@@ -141,10 +187,14 @@ impl Plan {
         }
         let (reach, bend) = extent(motion, &mesh.edges);
         let floor = FLOOR * pad;
-        let (reach, bend) = (growth * reach + floor, growth * bend + floor);
-        if reach > REACH_SHARE * mesh.spacing || bend > BEND_SHARE * mesh.spacing {
+        let caps = (REACH_SHARE * mesh.spacing, BEND_SHARE * mesh.spacing);
+        if growth * reach + floor > caps.0 || growth * bend + floor > caps.1 {
             return false;
         }
+        let (reach, bend) = (
+            (AHEAD * growth * reach + floor).min(caps.0),
+            (AHEAD * growth * bend + floor).min(caps.1),
+        );
         self.base.clear();
         self.base.extend_from_slice(x);
         (self.pad, self.reach, self.bend) = (pad, reach, bend);
@@ -157,17 +207,7 @@ impl Plan {
                 *c = Cone::of_turning_triangle(tri.map(|k| &x[k as usize]), bend);
             }
         });
-        let tri_cones = &self.tri_cones;
-        mesh.tri_bvh.fold_up(
-            &mut self.cones,
-            |leaf| {
-                leaf.iter()
-                    .map(|&t| tri_cones[t as usize])
-                    .reduce(|a, b| a.merge(&b))
-                    .unwrap_or_default()
-            },
-            Cone::merge,
-        );
+        cones::fold(&mesh.tri_bvh, &self.tri_cones, &mut self.cones);
         let (cones, sweep) = (
             &self.cones,
             Sweep {
@@ -192,7 +232,7 @@ impl Plan {
     /// The pairs of `mesh` for the motion from `x0` to `x1` with pad
     /// `pad`, as [`ClothMesh::feature_pairs`] after [`ClothMesh::refit`]
     /// would list them, less pairs the plan shows cannot meet: from the
-    /// plan, if it was made at `x0` and holds for this motion and pad (the
+    /// plan, if it holds for this motion and pad (the
     /// mesh's vertex boxes are then refitted to it, as `refit` would; a
     /// pair's triangle and edge boxes are the unions of its vertices'
     /// boxes, formed here for the planned pairs alone). Returns whether it
@@ -205,11 +245,7 @@ impl Plan {
         vf: &mut Vec<(u32, u32)>,
         ee: &mut Vec<(u32, u32)>,
     ) -> bool {
-        if !self.valid
-            || pad > self.pad
-            || x0 != self.base.as_slice()
-            || x1.len() != x0.len()
-            || !self.within(mesh, x0.len(), |k| x1[k] - x0[k])
+        if !self.valid || pad > self.pad || x1.len() != x0.len() || !self.holds(mesh, x0, |k| x1[k])
         {
             return false;
         }
@@ -268,7 +304,7 @@ mod tests {
             })
             .collect();
         let pad = 0.2 * mesh.spacing;
-        let step = 0.015 * mesh.spacing;
+        let step = 0.003 * mesh.spacing;
         let last: Vec<Vec3> = (0..x.len())
             .map(|_| Vec3::new(rng.random_range(-1.0..1.0), 0.0, 0.0) * step)
             .collect();
@@ -277,24 +313,32 @@ mod tests {
         let (reach, bend) = (plan.reach, plan.bend);
         let (mut vf, mut ee, mut vf1, mut ee1) = (vec![], vec![], vec![], vec![]);
         let mut compared = 0;
-        for round in 0..20 {
-            // Each particle moves within `reach`, and neighbours within
-            // `bend` of each other: a common drift plus a small part.
-            let drift = Vec3::new(0.6, -0.3, 0.5).normalize() * (0.5 * reach);
-            let x1: Vec<Vec3> = x
-                .iter()
+        // Positions within the bounds: a common drift plus a small part
+        // per particle, so neighbours stay within `bend` of each other.
+        let mut near = |drift: Vec3| -> Vec<Vec3> {
+            x.iter()
                 .map(|p| {
                     let own = Vec3::new(
                         rng.random_range(-1.0..1.0),
                         rng.random_range(-1.0..1.0),
                         rng.random_range(-1.0..1.0),
                     ) * (0.25 * bend.min(reach));
-                    p + drift + own
+                    p + drift * (0.5 * reach) + own
                 })
-                .collect();
+                .collect()
+        };
+        for round in 0..20 {
+            // From the plan's base, or (the steps after it) from elsewhere
+            // within the bounds.
+            let x0 = if round % 3 == 0 {
+                x.clone()
+            } else {
+                near(Vec3::new(-0.2, 0.7, 0.3).normalize())
+            };
+            let x1 = near(Vec3::new(0.6, -0.3, 0.5).normalize());
             let p = if round % 2 == 0 { pad } else { 0.05 * pad };
-            assert!(plan.pairs(&mut mesh, (&x, &x1), p, &mut vf, &mut ee));
-            mesh.refit(&x, &x1, p);
+            assert!(plan.pairs(&mut mesh, (&x0, &x1), p, &mut vf, &mut ee));
+            mesh.refit(&x0, &x1, p);
             mesh.feature_pairs(&mut vf1, &mut ee1);
             for pair in &vf1 {
                 assert!(vf.contains(pair), "vertex-face {pair:?} missing");
@@ -304,6 +348,18 @@ mod tests {
             }
             compared += vf1.len() + ee1.len();
         }
+        // A later step near the base, moving slowly, keeps the plan; one
+        // whose next motion could leave the bounds plans again.
+        let later: Vec<Vec3> = x.iter().map(|p| p + Vec3::z() * (0.5 * reach)).collect();
+        let slow: Vec<Vec3> = last.iter().map(|d| d * 0.1).collect();
+        assert!(plan.make(&mut mesh, &later, pad, &slow));
+        assert_eq!((plan.base.as_slice(), plan.reach), (x.as_slice(), reach));
+        let quick: Vec<Vec3> = last.iter().map(|d| d * 4.0).collect();
+        assert!(plan.make(&mut mesh, &later, pad, &quick));
+        assert_eq!(plan.base, later);
+        plan = Plan::default();
+        assert!(plan.make(&mut mesh, &x, pad, &last));
+        assert_eq!(plan.reach, reach);
         assert!(compared > 100, "only {compared} pairs compared");
         // Out of bounds: a particle moved by twice the reach.
         let mut far = x.clone();

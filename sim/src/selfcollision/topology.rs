@@ -16,7 +16,7 @@
 //! edge–edge and edge–triangle pair, and skips whole patches whose normal
 //! cone shows they cannot meet themselves (`super::cones`).
 
-use super::cones::Cone;
+use super::cones::{self, Cone};
 use super::contour::{self, Contours, Sweep};
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh, BvhTask as Task};
@@ -170,17 +170,7 @@ impl ClothMesh {
                 *c = Cone::of_triangle(k.map(|k| &x0[k]), k.map(|k| &x1[k]));
             }
         });
-        let tri_cones = &self.tri_cones;
-        self.tri_bvh.fold_up(
-            &mut self.cones,
-            |leaf| {
-                leaf.iter()
-                    .map(|&t| tri_cones[t as usize])
-                    .reduce(|a, b| a.merge(&b))
-                    .unwrap_or_default()
-            },
-            Cone::merge,
-        );
+        cones::fold(&self.tri_bvh, &self.tri_cones, &mut self.cones);
     }
 
     /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
