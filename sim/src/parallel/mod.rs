@@ -18,6 +18,7 @@
 //! on its own thread; so do a run's loops while its [`Tuner`] measured
 //! them faster alone.
 
+mod disjoint;
 mod team;
 mod tuner;
 
@@ -25,6 +26,7 @@ use std::cell::RefCell;
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
+pub use disjoint::Disjoint;
 pub use team::Team;
 pub use tuner::Tuner;
 

@@ -40,8 +40,8 @@ impl Level {
     fn new(a: GridMatrix) -> Self {
         let n = a.len();
         Self {
-            warp: LineFamily::new(Direction::U, &a),
-            weft: LineFamily::new(Direction::V, &a),
+            warp: LineFamily::new(Direction::U, &a, 2),
+            weft: LineFamily::new(Direction::V, &a, 2),
             a,
             b: vec![Vec3f::zeros(); n],
             x: vec![Vec3f::zeros(); n],

@@ -100,6 +100,33 @@ pub fn mul_t(m: &BlockLanes, v: &VecLanes) -> VecLanes {
     out
 }
 
+/// `a bᵀ`, lane by lane, each entry summed in nalgebra's order.
+#[inline(always)]
+pub fn mul_bt(a: &BlockLanes, b: &BlockLanes) -> BlockLanes {
+    let mut out = ZERO_BLOCK;
+    for r in 0..3 {
+        for c in 0..3 {
+            for l in 0..LANES {
+                out[3 * r + c][l] = a[3 * r][l] * b[3 * c][l]
+                    + a[3 * r + 1][l] * b[3 * c + 1][l]
+                    + a[3 * r + 2][l] * b[3 * c + 2][l];
+            }
+        }
+    }
+    out
+}
+
+/// `acc -= a bᵀ`, lane by lane.
+#[inline(always)]
+pub fn sub_mul_bt(acc: &mut BlockLanes, a: &BlockLanes, b: &BlockLanes) {
+    let p = mul_bt(a, b);
+    for (acc, p) in acc.iter_mut().zip(&p) {
+        for (acc, p) in acc.iter_mut().zip(p) {
+            *acc -= p;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -122,8 +149,19 @@ mod tests {
         let (mut acc, mut acc_t) = (v, v);
         sub_mul(&mut acc, &m, &v);
         sub_mul_t(&mut acc_t, &m, &v);
+        let other: Vec<Block> = blocks.iter().map(|b| b.map(|v| v * 1.7 - 0.2)).collect();
+        let mut n = ZERO_BLOCK;
+        for (l, o) in other.iter().enumerate() {
+            set_block(&mut n, l, o);
+        }
+        let prod_bt = mul_bt(&m, &n);
+        let mut acc_bt = n;
+        sub_mul_bt(&mut acc_bt, &m, &n);
         for l in 0..LANES {
             let (b, x) = (&blocks[l], &vecs[l]);
+            let lane = |m: &BlockLanes| Block::from_fn(|r, c| m[3 * r + c][l]);
+            assert_eq!(lane(&prod_bt), b * other[l].transpose());
+            assert_eq!(lane(&acc_bt), other[l] - b * other[l].transpose());
             assert_eq!(get_vec(&prod, l), b * x);
             assert_eq!(get_vec(&prod_t, l), b.transpose() * x);
             assert_eq!(get_vec(&acc, l), x - b * x);

@@ -11,18 +11,36 @@
 //! Each line's block (its nodes, coupled at distance one and two along the
 //! line) is factored as a block-pentadiagonal `L Lᵀ` with 3x3 blocks, the
 //! inverses of the diagonal factors stored so a solve is only 3x3 products.
-//! Lines of one family are relaxed in three colours (line index mod 3):
-//! couplings reach two lines across, so the lines of one colour are
-//! independent of each other, and a forward sweep (colours 0, 1, 2)
-//! followed later by the backward one (2, 1, 0) makes a symmetric
-//! smoother.
+//!
+//! A sweep couples each line to the lines up to `reach` across (one or
+//! two), so lines `reach + 1` apart are independent: the lines of one
+//! family are relaxed in `reach + 1` colours (line index mod `reach + 1`),
+//! the lines of a colour at once, and a forward sweep (colours in order)
+//! followed later by the backward one (reversed) makes a symmetric
+//! smoother. With `reach` 2 (bending's reach) that is block Gauss–Seidel
+//! on `A` itself. With `reach` 1 it is Gauss–Seidel on
+//!
+//! ```text
+//! Ã = A - C + E,   E = Σ over the couplings B left out: |B|_F I on both nodes' diagonals
+//! ```
+//!
+//! where `C` holds the couplings two or more lines across: for each such
+//! `B` between nodes `p` and `q`, `E - C` adds
+//! `[[|B|_F I, -B], [-Bᵀ, |B|_F I]]`, positive semi-definite since
+//! `2 uᵀ B v ≤ |B|_F (|u|² + |v|²)`; so `Ã ≥ A` is SPD and the smoother
+//! stays an SPD preconditioner, whatever the stencil.
+//!
+//! Within a colour, the packs of lines are solved on the team and each
+//! writes its own lines' nodes of `x` directly ([`Disjoint`]): a pack
+//! reads `x` only on lines of other colours, and writes only its own.
 
 use super::grid_matrix::{Block, GridMatrix, Vec3f};
 use super::lanes::{
     BlockLanes, LANES, VecLanes, ZERO_BLOCK, ZERO_VEC, get_vec, mul, mul_t, set_block, set_vec,
     sub_mul, sub_mul_t,
 };
-use crate::parallel;
+use super::line_factor::{self, NodeBlocks, NodeFactor, ZERO_FACTOR};
+use crate::parallel::{self, Disjoint};
 
 /// The lines' direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,7 +62,7 @@ pub struct LineFamily {
     direction: Direction,
     len: usize,
     /// The first pack of each colour, and the end of the last.
-    colour_start: [usize; 4],
+    colour_start: Vec<usize>,
     /// The line in each lane of each pack ([`MISSING`]: padding).
     pack_lines: Vec<u32>,
     /// Grid index of each lane's node, per pack and node (padding: 0).
@@ -61,24 +79,10 @@ pub struct LineFamily {
     off_source: Vec<[u32; LANES]>,
     /// Per pack and node, its Cholesky factors.
     factors: Vec<NodeFactor>,
+    /// The matrix's offsets reaching two or more lines across, left out
+    /// of the sweep and made up for on the diagonal.
+    dropped: Vec<usize>,
 }
-
-/// A node's part of its line's block-banded Cholesky factor, one lane per
-/// line of the pack: the inverse of its diagonal factor and the factors
-/// coupling it to the previous node and the one before. The backward
-/// substitution multiplies by their transposes, so none are stored twice.
-#[derive(Debug, Clone, Copy)]
-struct NodeFactor {
-    inv: BlockLanes,
-    prev1: BlockLanes,
-    prev2: BlockLanes,
-}
-
-const ZERO_FACTOR: NodeFactor = NodeFactor {
-    inv: ZERO_BLOCK,
-    prev1: ZERO_BLOCK,
-    prev2: ZERO_BLOCK,
-};
 
 /// What a sweep may assume about `x` on entry, to skip work whose result
 /// it already knows.
@@ -111,8 +115,11 @@ pub struct LineScratch {
 }
 
 impl LineFamily {
-    /// Factors for the lines of `direction` on `a`'s grid.
-    pub fn new(direction: Direction, a: &GridMatrix) -> Self {
+    /// Factors for the lines of `direction` on `a`'s grid, each line
+    /// coupled to the lines up to `reach` across (1 or 2: module doc).
+    pub fn new(direction: Direction, a: &GridMatrix, reach: usize) -> Self {
+        assert!((1..=2).contains(&reach), "reach {reach}");
+        let colours = reach + 1;
         let (lines, len) = match direction {
             Direction::U => (a.nv, a.nu),
             Direction::V => (a.nu, a.nv),
@@ -121,35 +128,48 @@ impl LineFamily {
             Direction::U => t + l * a.nu,
             Direction::V => l + t * a.nu,
         };
-        let mut colour_start = [0; 4];
+        let mut colour_start = vec![0; colours + 1];
         let mut pack_lines = Vec::new();
-        for c in 0..3 {
+        for c in 0..colours {
             colour_start[c] = pack_lines.len() / LANES;
-            let of_colour: Vec<u32> = (c..lines).step_by(3).map(|l| l as u32).collect();
+            let of_colour: Vec<u32> = (c..lines).step_by(colours).map(|l| l as u32).collect();
             for pack in of_colour.chunks(LANES) {
                 pack_lines.extend(pack);
                 pack_lines.resize(pack_lines.len() + LANES - pack.len(), MISSING);
             }
         }
         let packs = pack_lines.len() / LANES;
-        colour_start[3] = packs;
-        let off: Vec<usize> = a
-            .offsets()
-            .iter()
-            .enumerate()
-            .filter(|&(_, &(di, dj))| !on_line(direction, di, dj))
-            .map(|(k, _)| k)
-            .collect();
+        colour_start[colours] = packs;
+        let across = |(di, dj): (i32, i32)| match direction {
+            Direction::U => dj.abs(),
+            Direction::V => di.abs(),
+        };
+        let reach = reach as i32;
+        let slots = |keep: &dyn Fn(i32) -> bool| -> Vec<usize> {
+            (0..a.offsets().len())
+                .filter(|&k| keep(across(a.offsets()[k])))
+                .collect()
+        };
+        let off = slots(&|d| d >= 1 && d <= reach);
+        let dropped = slots(&|d| d > reach);
         let width = off.len();
         let stride = a.offsets().len();
         let mut nodes = vec![[0; LANES]; packs * len];
         let mut off_index = vec![[0; LANES]; packs * len * width];
         let mut off_source = vec![[MISSING; LANES]; packs * len * width];
         for (lane_at, &line) in pack_lines.iter().enumerate() {
+            let (pack, lane) = (lane_at / LANES, lane_at % LANES);
             if line == MISSING {
+                // A padding lane reads what its pack's first lane reads:
+                // nothing another pack of its colour writes (`sweep`).
+                for t in 0..len {
+                    let s = pack * len + t;
+                    for k in 0..width {
+                        off_index[s * width + k][lane] = off_index[s * width + k][0];
+                    }
+                }
                 continue;
             }
-            let (pack, lane) = (lane_at / LANES, lane_at % LANES);
             for t in 0..len {
                 let p = node(line as usize, t);
                 let s = pack * len + t;
@@ -175,6 +195,7 @@ impl LineFamily {
             off_index,
             off_source,
             factors: vec![ZERO_FACTOR; packs * len],
+            dropped,
         };
         f.factor(a);
         f
@@ -208,47 +229,52 @@ impl LineFamily {
                 }
             }
         });
-        // Each line's Cholesky factors, packs in parallel.
+        // Each line's Cholesky factors, the lines of a pack side by side
+        // in the lanes (padding lanes factor an identity), packs in
+        // parallel.
         let (nodes, pack_lines) = (&self.nodes, &self.pack_lines);
         let get = |p: usize, k: Option<usize>| k.map_or(Block::zeros(), |k| a.row(p)[k]);
+        // The couplings the smoother leaves out, each `B` put back on both
+        // its nodes' diagonals as `|B|_F I` (module doc).
+        let dropped = &self.dropped;
+        let compensation = |p: usize| -> f32 {
+            let row = a.row(p);
+            dropped.iter().map(|&k| row[k].norm()).sum()
+        };
         parallel::for_rows(
             &mut self.factors,
             len,
             parallel::HEAVY_MIN,
             |pack, factors| {
-                for lane in 0..LANES {
-                    if pack_lines[pack * LANES + lane] == MISSING {
-                        continue;
+                let lanes = |t: usize, of: &dyn Fn(usize) -> Block, padding: Block| {
+                    let mut out = ZERO_BLOCK;
+                    for lane in 0..LANES {
+                        let m = if pack_lines[pack * LANES + lane] == MISSING {
+                            padding
+                        } else {
+                            of(nodes[pack * len + t][lane] as usize)
+                        };
+                        set_block(&mut out, lane, &m);
                     }
-                    // The last two nodes' factors: (inverse, prev1) at t - 1
-                    // and the inverse at t - 2.
-                    let (mut inv1, mut prev1, mut inv2) =
-                        (Block::zeros(), Block::zeros(), Block::zeros());
-                    for t in 0..len {
-                        let p = nodes[pack * len + t][lane] as usize;
-                        let mut l2 = Block::zeros();
-                        let mut l1 = Block::zeros();
-                        let mut d = get(p, k0);
-                        if t >= 2 {
-                            l2 = get(p, k2) * inv2.transpose();
-                            d -= l2 * l2.transpose();
-                        }
-                        if t >= 1 {
-                            let mut m = get(p, k1);
-                            if t >= 2 {
-                                m -= l2 * prev1.transpose();
+                    out
+                };
+                line_factor::factor(factors, |t| {
+                    let diag = lanes(t, &|p| get(p, k0), Block::identity());
+                    let mut shift = [0.0; LANES];
+                    if !dropped.is_empty() {
+                        for (lane, shift) in shift.iter_mut().enumerate() {
+                            if pack_lines[pack * LANES + lane] != MISSING {
+                                *shift = compensation(nodes[pack * len + t][lane] as usize);
                             }
-                            l1 = m * inv1.transpose();
-                            d -= l1 * l1.transpose();
                         }
-                        let inv = inverse_cholesky(&d, &get(p, k0));
-                        let f = &mut factors[t];
-                        set_block(&mut f.inv, lane, &inv);
-                        set_block(&mut f.prev1, lane, &l1);
-                        set_block(&mut f.prev2, lane, &l2);
-                        (inv2, inv1, prev1) = (inv1, inv, l1);
                     }
-                }
+                    NodeBlocks {
+                        diag,
+                        shift,
+                        prev1: lanes(t, &|p| get(p, k1), Block::zeros()),
+                        prev2: lanes(t, &|p| get(p, k2), Block::zeros()),
+                    }
+                });
             },
         );
     }
@@ -270,60 +296,73 @@ impl LineFamily {
         let len = self.len;
         scratch.packs.resize(self.factors.len(), ZERO_VEC);
         let first = usize::from(entry == Entry::AfterReverse);
-        for c in first..3 {
-            let colour = if forward { c } else { 2 - c };
+        let colours = self.colour_start.len() - 1;
+        for c in first..colours {
+            let colour = if forward { c } else { colours - 1 - c };
             let coupled = !(c == 0 && entry == Entry::Zero);
             let packs = self.colour_start[colour]..self.colour_start[colour + 1];
             let out = &mut scratch.packs[packs.start * len..packs.end * len];
-            let xr: &[Vec3f] = x;
+            let shared = Disjoint::new(&mut *x);
             parallel::for_rows(out, len, SWEEP_PARALLEL_MIN, |k, out| {
-                self.solve_pack(packs.start + k, b, xr, coupled, out);
-            });
-            for (k, pack) in packs.enumerate() {
+                let pack = packs.start + k;
+                self.solve_pack(pack, b, &shared, coupled, out);
                 for lane in 0..LANES {
                     if self.pack_lines[pack * LANES + lane] == MISSING {
                         continue;
                     }
-                    for t in 0..len {
+                    for (t, v) in out.iter().enumerate() {
                         let p = self.nodes[pack * len + t][lane] as usize;
-                        x[p] = get_vec(&out[k * len + t], lane);
+                        // SAFETY: `p` is on this pack's own line, which no
+                        // other pack reads or writes in this colour (module
+                        // doc: lines of one colour are `reach + 1` apart,
+                        // and a sweep's couplings reach `reach`).
+                        #[allow(unsafe_code)]
+                        unsafe {
+                            shared.write(p, get_vec(v, lane));
+                        }
                     }
                 }
-            }
+            });
         }
     }
 
     /// Solves the blocks of pack `pack`'s lines for `b` minus their
     /// couplings to the other lines at their values in `x` (taken as zero
-    /// unless `coupled`), into `out`.
+    /// unless `coupled`), into `out`. It reads `x` only on lines of other
+    /// colours and, for a neighbour off the grid, at its own nodes
+    /// (times a zero block), which only this pack writes, after this.
     #[inline]
     fn solve_pack(
         &self,
         pack: usize,
         b: &[Vec3f],
-        x: &[Vec3f],
+        x: &Disjoint<'_, Vec3f>,
         coupled: bool,
         out: &mut [VecLanes],
     ) {
         let len = self.len;
         let at = pack * len;
         let w = self.width;
-        let gather = |v: &[Vec3f], index: &[u32; LANES]| {
-            let mut g = ZERO_VEC;
-            for (lane, &p) in index.iter().enumerate() {
-                set_vec(&mut g, lane, &v[p as usize]);
-            }
-            g
-        };
         // rhs, then L y = rhs in the same pass.
         for t in 0..len {
             let s = at + t;
-            let mut acc = gather(b, &self.nodes[s]);
+            let mut acc = ZERO_VEC;
+            for (lane, &p) in self.nodes[s].iter().enumerate() {
+                set_vec(&mut acc, lane, &b[p as usize]);
+            }
             if coupled {
                 let blocks = &self.off_blocks[s * w..(s + 1) * w];
                 let index = &self.off_index[s * w..(s + 1) * w];
                 for (m, q) in blocks.iter().zip(index) {
-                    sub_mul(&mut acc, m, &gather(x, q));
+                    let mut g = ZERO_VEC;
+                    for (lane, &p) in q.iter().enumerate() {
+                        // SAFETY: not written by another pack during this
+                        // colour (the doc above).
+                        #[allow(unsafe_code)]
+                        let v = unsafe { x.read(p as usize) };
+                        set_vec(&mut g, lane, &v);
+                    }
+                    sub_mul(&mut acc, m, &g);
                 }
             }
             let f = &self.factors[s];
@@ -348,53 +387,6 @@ impl LineFamily {
             out[t] = mul_t(&self.factors[s].inv, &acc);
         }
     }
-}
-
-/// Whether offset `(di, dj)` stays on a line of `direction`.
-fn on_line(direction: Direction, di: i32, dj: i32) -> bool {
-    match direction {
-        Direction::U => dj == 0,
-        Direction::V => di == 0,
-    }
-}
-
-/// `L⁻¹` for the lower Cholesky factor `L` of `d`; a non-positive pivot
-/// falls back to the magnitude of `original`'s diagonal entry.
-fn inverse_cholesky(d: &Block, original: &Block) -> Block {
-    let mut l = Block::zeros();
-    for c in 0..3 {
-        let mut s = d[(c, c)];
-        for k in 0..c {
-            s -= l[(c, k)] * l[(c, k)];
-        }
-        let floor = 1e-6 * original[(c, c)].abs();
-        let pivot = if s > floor && s.is_finite() {
-            s
-        } else {
-            original[(c, c)].abs().max(f32::MIN_POSITIVE)
-        };
-        l[(c, c)] = pivot.sqrt();
-        for r in c + 1..3 {
-            let mut s = d[(r, c)];
-            for k in 0..c {
-                s -= l[(r, k)] * l[(c, k)];
-            }
-            l[(r, c)] = s / l[(c, c)];
-        }
-    }
-    // Invert the lower triangle.
-    let mut inv = Block::zeros();
-    for c in 0..3 {
-        inv[(c, c)] = 1.0 / l[(c, c)];
-        for r in c + 1..3 {
-            let mut s = 0.0;
-            for k in c..r {
-                s -= l[(r, k)] * inv[(k, c)];
-            }
-            inv[(r, c)] = s / l[(r, r)];
-        }
-    }
-    inv
 }
 
 #[cfg(test)]
@@ -429,7 +421,7 @@ mod tests {
                     }
                 }
             }
-            let family = LineFamily::new(dir, &a);
+            let family = LineFamily::new(dir, &a, 2);
             let b: Vec<Vec3f> = (0..nu * nv)
                 .map(|k| Vec3f::new(1.0, (k as f32).sin(), -0.5))
                 .collect();
@@ -440,14 +432,5 @@ mod tests {
             let worst = r.iter().map(|v| v.amax()).fold(0.0, f32::max);
             assert!(worst < 1e-5, "{dir:?}: residual {worst}");
         }
-    }
-
-    #[test]
-    fn inverse_cholesky_inverts_the_factor() {
-        let d = Block::new(4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0);
-        let inv = inverse_cholesky(&d, &d);
-        // (L⁻¹)ᵀ L⁻¹ = D⁻¹, so D (L⁻¹)ᵀ L⁻¹ = I.
-        let id = d * inv.transpose() * inv;
-        assert!((id - Block::identity()).amax() < 1e-5, "{id}");
     }
 }

@@ -7,6 +7,7 @@ mod dense;
 mod grid_matrix;
 mod hierarchy;
 mod lanes;
+mod line_factor;
 mod lines;
 mod transfer;
 
