@@ -54,6 +54,9 @@ pub struct ClothMesh {
     /// steps.
     seeds: Vec<Task>,
     pieces: Vec<Piece>,
+    /// A planned query's pairs, filtered a piece at a time
+    /// (`super::plan::Plan::pairs`), kept between steps.
+    pub(super) filtered: Vec<Lists>,
     /// The last refit's motion.
     x0: Vec<Vec3>,
     x1: Vec<Vec3>,
@@ -136,6 +139,7 @@ impl ClothMesh {
             contour_scratch: contour::Scratch::default(),
             seeds: Vec::new(),
             pieces: Vec::new(),
+            filtered: Vec::new(),
             x0: Vec::new(),
             x1: Vec::new(),
             triangles,
@@ -402,8 +406,8 @@ const SEEDS: usize = 64;
 /// Two lists of pairs a gather fills.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Lists {
-    first: Vec<(u32, u32)>,
-    second: Vec<(u32, u32)>,
+    pub(super) first: Vec<(u32, u32)>,
+    pub(super) second: Vec<(u32, u32)>,
 }
 
 /// One task's share of a gather: its lists and scratch.
