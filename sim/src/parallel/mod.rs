@@ -158,6 +158,25 @@ pub fn sum(n: usize, f: impl Fn(Range<usize>) -> Real + Sync) -> Real {
     partials.into_iter().sum()
 }
 
+/// `Σ f(start, chunk)` over the chunks of `out` that [`sum`] would cut,
+/// partials added in order, where `f` may also write its chunk: an update
+/// and a sum of it in one pass, bit for bit the two passes' results.
+pub fn update_sum<T: Send>(out: &mut [T], f: impl Fn(usize, &mut [T]) -> Real + Sync) -> Real {
+    if piece_len(out.len(), PARALLEL_MIN).is_none() {
+        return out
+            .chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| f(c * CHUNK, chunk))
+            .sum();
+    }
+    let mut partials = vec![0.0; out.len().div_ceil(CHUNK)];
+    each(
+        out.chunks_mut(CHUNK).zip(&mut partials).enumerate(),
+        |(c, (chunk, p)): (usize, (&mut [T], &mut Real))| *p = f(c * CHUNK, chunk),
+    );
+    partials.into_iter().sum()
+}
+
 /// `aᵀ b`.
 pub fn dot(a: &[Vec3], b: &[Vec3]) -> Real {
     sum(a.len(), |r| {

@@ -129,12 +129,19 @@ impl MpcgWorkspace {
     }
 }
 
-fn filter_in_place(s: &[Filter], v: &mut [Vec3]) {
-    parallel::for_chunks(v, |start, chunk| {
-        for (k, x) in chunk.iter_mut().enumerate() {
-            *x = s[start + k].apply(x);
-        }
-    });
+/// `v = S v`, returning `uᵀ v` (after the filter) in one pass: bit for
+/// bit the filter's pass and then `dot(u, v)`.
+fn filter_and_dot(s: &[Filter], v: &mut [Vec3], u: &[Vec3]) -> Real {
+    parallel::update_sum(v, |start, chunk| {
+        chunk
+            .iter_mut()
+            .enumerate()
+            .map(|(k, x)| {
+                *x = s[start + k].apply(x);
+                u[start + k].dot(x)
+            })
+            .sum()
+    })
 }
 
 /// The system `(A + R) dv = b` with filters `S` and targets `z`.
@@ -213,8 +220,7 @@ pub fn iterate(
             break SolveStatus::MaxIterations;
         }
         precond.apply(a, s, &ws.r, &mut ws.s);
-        filter_in_place(s, &mut ws.s);
-        let delta_new = dot(&ws.r, &ws.s);
+        let delta_new = filter_and_dot(s, &mut ws.s, &ws.r);
         if !delta_new.is_finite() {
             break SolveStatus::Breakdown;
         }
@@ -241,21 +247,28 @@ pub fn iterate(
             }
         });
         problem.apply(&ws.c, &mut ws.q);
-        filter_in_place(s, &mut ws.q);
-        let curvature = dot(&ws.c, &ws.q);
+        let curvature = filter_and_dot(s, &mut ws.q, &ws.c);
         if curvature <= 0.0 || !curvature.is_finite() {
             break SolveStatus::Breakdown;
         }
         let alpha = delta / curvature;
         ws.lanczos.push(alpha, beta);
         let (c, q) = (&ws.c, &ws.q);
-        parallel::for_chunks2(dv, &mut ws.r, |start, d, r| {
-            for k in 0..d.len() {
-                d[k] += c[start + k] * alpha;
-                r[k] -= q[start + k] * alpha;
+        parallel::for_chunks(dv, |start, d| {
+            for (k, d) in d.iter_mut().enumerate() {
+                *d += c[start + k] * alpha;
             }
         });
-        rnorm = dot(&ws.r, &ws.r).sqrt();
+        rnorm = parallel::update_sum(&mut ws.r, |start, r| {
+            r.iter_mut()
+                .zip(&q[start..])
+                .map(|(r, q)| {
+                    *r -= q * alpha;
+                    r.dot(r)
+                })
+                .sum()
+        })
+        .sqrt();
         iterations += 1;
         // Or the step terms' estimate, which many constraints favour: it
         // needs no new δ, so it is checked before the next apply.

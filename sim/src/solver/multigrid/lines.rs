@@ -217,7 +217,7 @@ impl LineFamily {
         // Couplings to other lines, node by node.
         let values = a.values();
         let source = &self.off_source;
-        parallel::for_chunks(&mut self.off_blocks, |start, blocks| {
+        parallel::for_chunks_min(&mut self.off_blocks, parallel::ROWS_MIN, |start, blocks| {
             for (b, src) in blocks.iter_mut().zip(&source[start..]) {
                 for (lane, &at) in src.iter().enumerate() {
                     let m = if at == MISSING {
