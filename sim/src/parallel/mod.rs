@@ -277,6 +277,20 @@ mod tests {
                         .enumerate()
                         .for_each(|(k, v)| *v = (r * 3 + k) as f64);
                 });
+                // An update fused with its sum: the two passes' numbers.
+                let mut scaled = a.clone();
+                let fused = update_sum(&mut scaled, |start, c| {
+                    c.iter_mut()
+                        .enumerate()
+                        .map(|(k, v)| {
+                            *v *= 1.5;
+                            a[start + k].dot(v)
+                        })
+                        .sum()
+                });
+                let twice: Vec<Vec3> = a.iter().map(|v| v * 1.5).collect();
+                assert_eq!(scaled, twice);
+                assert_eq!(fused.to_bits(), dot(&a, &twice).to_bits());
                 (d, out, rows)
             })
         };
