@@ -282,7 +282,8 @@ impl LineFamily {
     /// One relaxation of every line, colours in order (`forward`) or
     /// reversed: each line's nodes become the exact solution of its block
     /// given the others' current values. The packs of a colour are solved
-    /// in parallel (each into its own buffer), then written back. `entry`
+    /// in parallel (each substituting in its own buffer) and each writes
+    /// its lines' nodes of `x` itself (module doc). `entry`
     /// lets the sweep skip what it knows the result of (bit for bit the
     /// same `x`).
     pub fn sweep(
