@@ -58,9 +58,11 @@ pub const BEND_SHARE: Real = 0.1;
 /// The bounds' margin over the last step's motion, for one step.
 const GROWTH: Real = 2.0;
 /// Steps of motion a plan is made for. Larger bounds keep more pairs
-/// (each query filters them) and widen the cones (fewer patches culled);
-/// measured on sphere-drape-30, one thread (callgrind, instructions of
-/// the whole run): see docs/benchmarks.md 1p.
+/// (each query filters them) and widen the cones (fewer patches culled),
+/// fewer plans are made: one thread, self-collision stage, two steps
+/// against four, sphere-drape-30 0.271–0.284 s against 0.276–0.310 s,
+/// table-drape 1.087–1.164 s against 1.039–1.060 s (docs/benchmarks.md
+/// 1p).
 const AHEAD: Real = 4.0;
 /// The bounds' margin over a solve's motion, for its response: the
 /// response's impulses change it by a fraction.
