@@ -96,11 +96,21 @@ pub fn alone() -> bool {
 }
 
 impl Team {
-    /// A team of `threads` threads (the caller counts as one).
-    ///
-    /// # Panics
-    /// If the operating system refuses a thread.
+    /// A team of `threads` threads (the caller counts as one). If the
+    /// operating system refuses a thread (a container's thread limit),
+    /// the team keeps the helpers it has and says so in a warning: fewer
+    /// threads change no result, only the speed.
     pub fn new(threads: usize) -> Self {
+        Self::spawned_by(threads, |name, body| {
+            std::thread::Builder::new().name(name).spawn(body)
+        })
+    }
+
+    /// [`Team::new`] with helpers started by `spawn` (tests refuse some).
+    fn spawned_by(
+        threads: usize,
+        mut spawn: impl FnMut(String, Box<dyn FnOnce() + Send>) -> std::io::Result<JoinHandle<()>>,
+    ) -> Self {
         let helpers = threads.max(1) - 1;
         let shared = Arc::new(Shared {
             state: AtomicU64::new(0),
@@ -110,15 +120,27 @@ impl Team {
             quit: AtomicBool::new(false),
             sleeping: (0..helpers).map(|_| AtomicBool::new(false)).collect(),
         });
-        let handles: Vec<JoinHandle<()>> = (0..helpers)
-            .map(|k| {
-                let shared = Arc::clone(&shared);
-                std::thread::Builder::new()
-                    .name(format!("solver-{}", k + 1))
-                    .spawn(move || helper(&shared, k))
-                    .expect("the operating system refused a solver thread")
-            })
-            .collect();
+        let mut handles: Vec<JoinHandle<()>> = Vec::with_capacity(helpers);
+        for k in 0..helpers {
+            let helper_shared = Arc::clone(&shared);
+            match spawn(
+                format!("solver-{}", k + 1),
+                Box::new(move || helper(&helper_shared, k)),
+            ) {
+                Ok(handle) => handles.push(handle),
+                Err(e) => {
+                    // Helpers are numbered in order, so the ones started
+                    // are `0..k`; a refused one's `sleeping` flag is never
+                    // set, so no job wakes it.
+                    tracing::warn!(
+                        wanted = threads,
+                        running = k + 1,
+                        "the operating system refused a solver thread ({e}); running on fewer"
+                    );
+                    break;
+                }
+            }
+        }
         let threads = handles.iter().map(|h| h.thread().clone()).collect();
         Self {
             shared,
@@ -341,6 +363,28 @@ mod tests {
             hits.fetch_add(1, Relaxed);
         });
         assert_eq!(hits.load(Relaxed), 5);
+    }
+
+    /// A refused thread leaves a smaller team that still runs every
+    /// index once, instead of a panic at start-up.
+    #[test]
+    fn a_refused_thread_leaves_a_smaller_team() {
+        let mut started = 0;
+        let team = Team::spawned_by(4, |name, body| {
+            started += 1;
+            if started == 2 {
+                return Err(std::io::Error::other("thread limit"));
+            }
+            std::thread::Builder::new().name(name).spawn(body)
+        });
+        assert_eq!(team.threads(), 2);
+        let hits: Vec<AtomicUsize> = (0..100).map(|_| AtomicUsize::new(0)).collect();
+        for _ in 0..20 {
+            team.run(100, &|i| {
+                hits[i].fetch_add(1, Relaxed);
+            });
+        }
+        assert!(hits.iter().all(|h| h.load(Relaxed) == 20));
     }
 
     /// A helper parked after its idle time wakes for the next job.

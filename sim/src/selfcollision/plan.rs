@@ -256,17 +256,14 @@ impl Plan {
             return false;
         }
         mesh.fit_vertex_boxes(x0, x1, pad);
+        mesh.fit_query_edges();
         // Pieces of fixed length, on the team, joined in order: the same
         // lists whatever the number of threads.
         let pieces = self.vf.len().max(self.ee.len()).div_ceil(FILTER_PIECE);
-        let (vb, triangles, edges) = (&mesh.vertex_boxes, &mesh.triangles, &mesh.edges);
+        let (vb, triangles, eb) = (&mesh.vertex_boxes, &mesh.triangles, &mesh.query_edges);
         let tri = |t: u32| {
             let [a, b, c] = triangles[t as usize].map(|k| &vb[k as usize]);
             a.union(b).union(c)
-        };
-        let edge = |e: u32| {
-            let [a, b] = edges[e as usize].map(|k| &vb[k as usize]);
-            a.union(b)
         };
         let out = &mut mesh.filtered;
         out.resize_with(pieces, Default::default);
@@ -284,7 +281,7 @@ impl Plan {
             lists.second.extend(
                 planned_ee[range(k, planned_ee.len())]
                     .iter()
-                    .filter(|&&(e, f)| edge(e).overlaps(&edge(f))),
+                    .filter(|&&(e, f)| eb[e as usize].overlaps(&eb[f as usize])),
             );
         });
         vf.clear();
