@@ -145,7 +145,11 @@ pub trait AngleLaw {
     fn energy(g: &AngleGeom, c1: Real, c0: Real) -> Real;
     /// Gradient and the Hessian requested by `mode`; only the one asked
     /// for is computed (PERF: the solver's assembly never pays for the
-    /// exact Hessian).
+    /// exact Hessian). PERF: implementations are `#[inline]`, so the
+    /// returned [`ArmDerivatives`] is built in place and the variant the
+    /// law never returns is dropped: called out of line, each element
+    /// copied the whole enum back (sphere-drape-30's assembly took 0.37 s
+    /// on one thread against 0.31 s inlined).
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives;
     /// Damping `k` (N·m·s per radian², or N·s/m per area) of the angle's
     /// rate when the arms move at `rate`; `None` for a law without it.

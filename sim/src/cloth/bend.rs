@@ -91,6 +91,7 @@ impl AngleLaw for Bend {
         energy_of_square(phi * phi, c1, c0).0
     }
 
+    #[inline]
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives {
         let phi = Self::phi(g);
         let (_, e_q, e_qq) = energy_of_square(phi * phi, c1, c0);

@@ -66,6 +66,7 @@ impl AngleLaw for Shear {
     /// `∇γ = j / cos γ` (`j = ∇f`, the solver's rank-one `j`):
     /// `-∂f/∂ė = k/cos²γ j jᵀ`; the exact `-∂f/∂e = k (∇γ (H_γ ė)ᵀ + γ̇ H_γ)`
     /// with `H_γ` the Hessian of `γ = asin f`.
+    #[inline]
     fn damping(g: &AngleGeom, k: Real, rate: [Vec3; 2], mode: JacobianMode) -> Option<ArmDamping> {
         let cos = g.sin().max(1e-9);
         let j = [g.g1, g.g2];
@@ -100,6 +101,7 @@ impl AngleLaw for Shear {
         energy_of_square(gamma * gamma, c1, c0).0
     }
 
+    #[inline]
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives {
         let gamma = g.f.asin();
         let (_, e_q, e_qq) = energy_of_square(gamma * gamma, c1, c0);
