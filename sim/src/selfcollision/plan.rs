@@ -119,8 +119,7 @@ impl Plan {
         pad: Real,
         last_moved: &[Vec3],
     ) -> bool {
-        let kept = self.valid
-            && pad <= self.pad
+        let kept = self.serves(pad)
             && last_moved.len() == x.len()
             && self.within(
                 mesh,
@@ -137,19 +136,23 @@ impl Plan {
     /// passes while their impulses keep the motion within
     /// [`RESPONSE_GROWTH`] of the solve's (module doc).
     pub fn cover(&mut self, mesh: &mut ClothMesh, x: &[Vec3], pad: Real, moved: &[Vec3]) {
-        let held = self.valid && pad <= self.pad && self.holds(mesh, x, |k| x[k] + moved[k]);
+        let held = self.serves(pad) && self.holds(mesh, x, |k| x[k] + moved[k]);
         if !held {
             self.make_around(mesh, x, pad, moved, RESPONSE_GROWTH);
         }
     }
 
+    /// Whether there is a plan, made for queries with pads up to `pad`.
+    fn serves(&self, pad: Real) -> bool {
+        self.valid && pad <= self.pad
+    }
+
     /// Whether the motion from `x0` to `x1(k)` keeps within the bounds:
-    /// both ends, and so the straight paths between them.
+    /// both ends, and so the straight paths between them (a cloth of
+    /// another size is not within them: [`Plan::within`]).
     fn holds(&self, mesh: &ClothMesh, x0: &[Vec3], x1: impl Fn(usize) -> Vec3) -> bool {
         let zero = |_| Vec3::zeros();
-        x0.len() == self.base.len()
-            && (x0 == self.base.as_slice()
-                || self.within(mesh, x0.len(), |k| x0[k] - self.base[k], zero))
+        (x0 == self.base.as_slice() || self.within(mesh, x0.len(), |k| x0[k] - self.base[k], zero))
             && self.within(mesh, x0.len(), |k| x1(k) - self.base[k], zero)
     }
 
@@ -238,11 +241,11 @@ impl Plan {
     /// The pairs of `mesh` for the motion from `x0` to `x1` with pad
     /// `pad`, as [`ClothMesh::feature_pairs`] after [`ClothMesh::refit`]
     /// would list them, less pairs the plan shows cannot meet: from the
-    /// plan, if it holds for this motion and pad (the
-    /// mesh's vertex boxes are then refitted to it, as `refit` would; a
-    /// pair's triangle and edge boxes are the unions of its vertices'
-    /// boxes, formed here for the planned pairs alone). Returns whether it
-    /// did.
+    /// plan, if it holds for this motion and pad (the mesh's vertex boxes
+    /// are then refitted to it, as `refit` would, and each edge's box
+    /// formed once; a triangle's box is the union of its vertices' boxes,
+    /// formed per planned pair, as many as there are triangles). Returns
+    /// whether it did.
     pub fn pairs(
         &self,
         mesh: &mut ClothMesh,
@@ -251,8 +254,7 @@ impl Plan {
         vf: &mut Vec<(u32, u32)>,
         ee: &mut Vec<(u32, u32)>,
     ) -> bool {
-        if !self.valid || pad > self.pad || x1.len() != x0.len() || !self.holds(mesh, x0, |k| x1[k])
-        {
+        if !self.serves(pad) || x1.len() != x0.len() || !self.holds(mesh, x0, |k| x1[k]) {
             return false;
         }
         mesh.fit_vertex_boxes(x0, x1, pad);
