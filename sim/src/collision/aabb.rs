@@ -65,7 +65,15 @@ impl Aabb {
     /// `true` when the boxes share a point.
     #[inline]
     pub fn overlaps(&self, o: &Aabb) -> bool {
-        (0..3).all(|k| self.lo[k] <= o.hi[k] && o.lo[k] <= self.hi[k])
+        // PERF: all six comparisons, joined without branches: filtering
+        // candidate pairs, about half fail on an axis no branch predictor
+        // can guess.
+        (self.lo.x <= o.hi.x)
+            & (o.lo.x <= self.hi.x)
+            & (self.lo.y <= o.hi.y)
+            & (o.lo.y <= self.hi.y)
+            & (self.lo.z <= o.hi.z)
+            & (o.lo.z <= self.hi.z)
     }
 
     /// `true` when `p` is inside or on the box.
