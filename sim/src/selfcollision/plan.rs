@@ -46,7 +46,7 @@
 
 use super::cones::{self, Cone};
 use super::contour::Sweep;
-use super::topology::ClothMesh;
+use super::topology::{ClothMesh, extend_kept};
 use crate::math::{Real, Vec3};
 use crate::parallel;
 
@@ -274,16 +274,18 @@ impl Plan {
             |k: usize, len: usize| (k * FILTER_PIECE).min(len)..((k + 1) * FILTER_PIECE).min(len);
         parallel::each(out.iter_mut().enumerate(), |(k, lists)| {
             lists.first.clear();
-            lists.first.extend(
+            extend_kept(
+                &mut lists.first,
                 planned_vf[range(k, planned_vf.len())]
                     .iter()
-                    .filter(|&&(v, t)| vb[v as usize].overlaps(&tri(t))),
+                    .map(|&(v, t)| ((v, t), vb[v as usize].overlaps(&tri(t)))),
             );
             lists.second.clear();
-            lists.second.extend(
+            extend_kept(
+                &mut lists.second,
                 planned_ee[range(k, planned_ee.len())]
                     .iter()
-                    .filter(|&&(e, f)| eb[e as usize].overlaps(&eb[f as usize])),
+                    .map(|&(e, f)| ((e, f), eb[e as usize].overlaps(&eb[f as usize]))),
             );
         });
         vf.clear();
