@@ -45,8 +45,12 @@ use crate::solver::Coupling;
 pub const KAPPA: Real = 16.0;
 
 /// Pairs a piece of the couplings' search takes: closest points of a
-/// thousand pairs are tens of microseconds, worth a core of their own.
-const PIECE: usize = 1024;
+/// few hundred pairs are some microseconds, worth a core of their own,
+/// and the pieces are many enough that both cores finish together (with
+/// a thousand, one core waited on the other's last piece: sphere-drape-30
+/// on two threads, self-collision 0.219 -> 0.205 s with this and the
+/// plan's smaller filter pieces, docs/benchmarks.md 1r).
+const PIECE: usize = 256;
 
 /// The pairs' buffers and the couplings found per piece, reused across
 /// steps.

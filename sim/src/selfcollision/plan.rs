@@ -70,9 +70,9 @@ pub const RESPONSE_GROWTH: Real = 1.25;
 /// The bounds' floor, as a share of the pad (a cloth at rest).
 const FLOOR: Real = 0.01;
 /// Planned pairs of each list filtered as one piece of a query
-/// ([`Plan::pairs`]): a few microseconds of work, so a 30² drape's ten
-/// thousand pairs make pieces for both cores.
-const FILTER_PIECE: usize = 2048;
+/// ([`Plan::pairs`]): a microsecond or two of work, so a 30² drape's ten
+/// thousand pairs make a dozen pieces, and both cores finish together.
+const FILTER_PIECE: usize = 512;
 /// The planned boxes' margin over the bounds, as a share of the spacing:
 /// far above the round-off of a query's box, far below any distance the
 /// response acts on.

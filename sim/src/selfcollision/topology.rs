@@ -267,7 +267,10 @@ impl ClothMesh {
         let this = &*self;
         this.tri_bvh
             .self_pair_seeds(SEEDS, |node| flat(this, node, &mut scratch), &mut seeds);
-        let count = (parallel::threads() * 4).clamp(1, seeds.len().max(1));
+        // Sixteen pieces a thread: the seeds' descents differ tenfold in
+        // cost (a fold against a flat patch), and with four a thread one
+        // core waited on the other's last piece (docs/benchmarks.md 1r).
+        let count = (parallel::threads() * 16).clamp(1, seeds.len().max(1));
         pieces.resize_with(count, Piece::default);
         for p in &mut pieces {
             p.lists.first.clear();
