@@ -65,9 +65,9 @@ impl Aabb {
     /// `true` when the boxes share a point.
     #[inline]
     pub fn overlaps(&self, o: &Aabb) -> bool {
-        // PERF: all six comparisons, joined without branches: filtering
-        // candidate pairs, about half fail on an axis no branch predictor
-        // can guess.
+        // PERF: all six comparisons, joined without branches: where
+        // candidate pairs are filtered, which axis fails follows no
+        // pattern a branch predictor learns (docs/benchmarks.md 1r).
         (self.lo.x <= o.hi.x)
             & (o.lo.x <= self.hi.x)
             & (self.lo.y <= o.hi.y)

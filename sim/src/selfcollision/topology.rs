@@ -434,9 +434,10 @@ const SEEDS: usize = 64;
 
 /// Appends the items marked to keep, in order, without a branch per item:
 /// each is written past the kept ones and the length moves on by whether
-/// it is kept. PERF: candidate pairs are kept or dropped at about even
-/// odds, on tests no branch predictor can guess; a mispredicted branch
-/// per pair cost more than the test (sphere-drape-30, section 1r).
+/// it is kept. PERF: whether a candidate is kept (about one in eight of
+/// a plan's) follows no pattern a branch predictor learns, and a
+/// mispredicted branch costs more than the box test
+/// (docs/benchmarks.md 1r).
 pub(super) fn extend_kept<T: Copy + Default>(
     out: &mut Vec<T>,
     items: impl ExactSizeIterator<Item = (T, bool)>,
