@@ -12,10 +12,10 @@
 //! How: the caller publishes a job (a task `Fn(index)` and a count) and
 //! takes indices itself from the front; helpers claim indices from the
 //! back, each with a compare-and-swap on one word `end << 32 | next`, run
-//! them, and count them done; the caller returns once every index is done. A helper spins for
-//! [`SPIN`], then yields its core for up to [`IDLE`] (so that another
-//! job's thread, in the service, gets the core it needs), then parks
-//! until the next job.
+//! them, and count them done; the caller returns once every index is
+//! done. A helper spins for [`SPIN`], then yields its core for up to
+//! [`IDLE`] (so that another job's thread, in the service, gets the core
+//! it needs), then parks until the next job.
 //!
 //! Which thread runs an index never changes what the index computes:
 //! determinism is the callers' business (fixed chunks, sums in order).

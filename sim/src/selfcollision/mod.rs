@@ -9,6 +9,7 @@
 //! | `cones` | bounds on a patch's normals over a step: which patches cannot meet themselves |
 //! | `contour` | and whose boundary, projected, stays simple |
 //! | `plan` | one descent at the step's start for every query of the step |
+//! | `kept` | candidate lists filtered without a branch per candidate |
 //! | `couplings` | layers within the thickness held apart inside the solve |
 //! | `ccd` | continuous vertex–face and edge–edge tests |
 //! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |
@@ -29,6 +30,7 @@ mod couplings;
 mod crossings;
 mod geometry;
 mod impulse;
+mod kept;
 mod plan;
 mod response;
 mod topology;

@@ -46,7 +46,8 @@
 
 use super::cones::{self, Cone};
 use super::contour::Sweep;
-use super::topology::{ClothMesh, extend_kept};
+use super::kept::extend_kept;
+use super::topology::ClothMesh;
 use crate::math::{Real, Vec3};
 use crate::parallel;
 

@@ -18,6 +18,7 @@
 
 use super::cones::{self, Cone};
 use super::contour::{self, Contours, Sweep};
+use super::kept::extend_kept;
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh, BvhTask as Task};
 use crate::math::{Real, Vec3};
@@ -431,25 +432,6 @@ impl ClothMesh {
 /// enough for two threads to balance, few enough that opening them (on
 /// the caller) costs nothing.
 const SEEDS: usize = 64;
-
-/// Appends the items marked to keep, in order, without a branch per item:
-/// each is written past the kept ones and the length moves on by whether
-/// it is kept. PERF: whether a candidate is kept (about one in eight of
-/// a plan's) follows no pattern a branch predictor learns, and a
-/// mispredicted branch costs more than the box test
-/// (docs/benchmarks.md 1r).
-pub(super) fn extend_kept<T: Copy + Default>(
-    out: &mut Vec<T>,
-    items: impl ExactSizeIterator<Item = (T, bool)>,
-) {
-    let mut n = out.len();
-    out.resize(n + items.len(), T::default());
-    for (item, keep) in items {
-        out[n] = item;
-        n += usize::from(keep);
-    }
-    out.truncate(n);
-}
 
 /// Two lists of pairs a gather fills.
 #[derive(Debug, Clone, Default)]
