@@ -352,15 +352,13 @@ impl ClothMesh {
     pub(super) fn feature_body(&self, s: usize, t: usize, out: &mut Lists) {
         let (os, ot) = (&self.owned[s], &self.owned[t]);
         for (mine, tri) in [(os, t), (ot, s)] {
-            let [c0, c1, c2] = self.triangles[tri];
+            let corners = self.triangles[tri];
             let tri_box = &self.tri_boxes[tri];
             extend_kept(
                 &mut out.first,
                 mine.vertices.as_slice().iter().map(|&v| {
-                    let keep = (v != c0)
-                        & (v != c1)
-                        & (v != c2)
-                        & self.vertex_boxes[v as usize].overlaps(tri_box);
+                    let keep =
+                        not_one_of(corners, v) & self.vertex_boxes[v as usize].overlaps(tri_box);
                     ((v, tri as u32), keep)
                 }),
             );
@@ -371,11 +369,9 @@ impl ClothMesh {
             extend_kept(
                 &mut out.second,
                 ot.edges.as_slice().iter().map(|&f| {
-                    let [b0, b1] = self.edges[f as usize];
-                    let keep = (a0 != b0)
-                        & (a0 != b1)
-                        & (a1 != b0)
-                        & (a1 != b1)
+                    let ends = self.edges[f as usize];
+                    let keep = not_one_of(ends, a0)
+                        & not_one_of(ends, a1)
                         & edge_box.overlaps(&self.edge_boxes[f as usize]);
                     ((e.min(f), e.max(f)), keep)
                 }),
@@ -409,14 +405,13 @@ impl ClothMesh {
             |m, node, s| m.flat(cull, node, s),
             |m, s, t, lists| {
                 for (owner, tri) in [(s, t), (t, s)] {
-                    let [c0, c1, c2] = m.triangles[tri];
-                    let outside = |a: u32| (a != c0) & (a != c1) & (a != c2);
+                    let corners = m.triangles[tri];
                     extend_kept(
                         &mut lists.first,
                         m.owned[owner].edges.as_slice().iter().map(|&e| {
                             let [a0, a1] = m.edges[e as usize];
-                            let keep = outside(a0)
-                                & outside(a1)
+                            let keep = not_one_of(corners, a0)
+                                & not_one_of(corners, a1)
                                 & m.edge_boxes[e as usize].overlaps(&m.tri_boxes[tri]);
                             ((e, tri as u32), keep)
                         }),
@@ -426,6 +421,18 @@ impl ClothMesh {
         );
         self.join(pieces, out, &mut Vec::new());
     }
+}
+
+/// Whether `v` is none of `these` (a vertex not a corner of a triangle,
+/// not an end of an edge): every comparison made, none branched on, so
+/// the candidate filters that call it stay without branches (`kept`).
+#[inline]
+fn not_one_of<const N: usize>(these: [u32; N], v: u32) -> bool {
+    let mut apart = true;
+    for t in these {
+        apart &= t != v;
+    }
+    apart
 }
 
 /// Seeds of the triangle hierarchy's self-descent shared out per gather:
