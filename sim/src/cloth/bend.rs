@@ -76,10 +76,34 @@ impl Bend {
         }
         AngleForce::new(el)
     }
+}
 
-    /// The bend angle `φ = 2 asin(|û1 + û2| / 2)`, accurate near zero.
-    fn phi(g: &AngleGeom) -> Real {
-        (0.5 * (g.u + g.w).norm()).min(1.0).asin() * 2.0
+/// With `κ = û1 + û2`, the half bend angle `φ/2 = asin(|κ| / 2)`, accurate
+/// near zero: computed once an element for the angle and the solver's
+/// Hessian ([`gauss_newton`]), which need the same arcsine.
+struct Hinge {
+    /// `|κ|²`.
+    qk: Real,
+    /// `|κ| / 2 = sin(φ/2)`.
+    half: Real,
+    /// `asin(min(|κ| / 2, 1))`.
+    asin: Real,
+}
+
+impl Hinge {
+    fn of(g: &AngleGeom) -> Self {
+        let qk = (g.u + g.w).norm_squared();
+        let half = 0.5 * qk.sqrt();
+        Self {
+            qk,
+            half,
+            asin: half.min(1.0).asin(),
+        }
+    }
+
+    /// The bend angle `φ`.
+    fn phi(&self) -> Real {
+        self.asin * 2.0
     }
 }
 
@@ -87,13 +111,14 @@ impl AngleLaw for Bend {
     const NAME: &'static str = "bend";
 
     fn energy(g: &AngleGeom, c1: Real, c0: Real) -> Real {
-        let phi = Self::phi(g);
+        let phi = Hinge::of(g).phi();
         energy_of_square(phi * phi, c1, c0).0
     }
 
     #[inline]
     fn eval(g: &AngleGeom, c1: Real, c0: Real, mode: JacobianMode) -> ArmDerivatives {
-        let phi = Self::phi(g);
+        let hinge = Hinge::of(g);
+        let phi = hinge.phi();
         let (_, e_q, e_qq) = energy_of_square(phi * phi, c1, c0);
         // q = φ² as a function of f: q_f = 2φ / sin φ,
         // q_ff = 2 (sin φ - φ cos φ) / sin³ φ, with cos φ = -f.
@@ -103,13 +128,13 @@ impl AngleLaw for Bend {
         } else {
             // NOTE: a hinge folded flat onto itself (φ = π) has no direction
             // to unfold in; the clamp keeps the numbers finite there.
-            let s = g.sin().max(1e-9);
+            let s = g.sin.max(1e-9);
             (2.0 * phi / s, 2.0 * (s + phi * g.f) / (s * s * s))
         };
         let e_f = e_q * q_f;
         let hess = ArmHessian::Full(match mode {
             JacobianMode::Exact => exact_hessian_through_f(g, e_f, e_qq * q_f * q_f + e_q * q_ff),
-            JacobianMode::Solver => gauss_newton(g, e_q),
+            JacobianMode::Solver => gauss_newton(g, &hinge, e_q),
         });
         ArmDerivatives {
             grad: gradient_through_f(g, e_f),
@@ -126,15 +151,19 @@ impl AngleLaw for Bend {
 /// `2 E'(q) [a P_i P_j / (r_i r_j) + c g_i g_jᵀ]`, and the projector
 /// products are `P_1 P_1 = I - û1 û1ᵀ`, `P_1 P_2 = I - û1 û1ᵀ - û2 û2ᵀ +
 /// f û1 û2ᵀ`: a handful of outer products.
-fn gauss_newton(g: &AngleGeom, e_q: Real) -> [[Mat3; 2]; 2] {
-    let kappa = g.u + g.w;
-    let qk = kappa.norm_squared();
-    let x = (0.5 * qk.sqrt()).min(1.0 - 1e-12); // sin(φ/2)
+fn gauss_newton(g: &AngleGeom, hinge: &Hinge, e_q: Real) -> [[Mat3; 2]; 2] {
+    let qk = hinge.qk;
+    let x = hinge.half.min(1.0 - 1e-12); // sin(φ/2)
     let (alpha, dalpha) = if x < SERIES_BELOW {
         let x2 = x * x;
         (1.0 + x2 / 6.0, 1.0 / 24.0 + 3.0 * x2 / 80.0)
     } else {
-        let a = x.asin();
+        // The hinge's arcsine unless the clamp moved `x` (folded flat).
+        let a = if x == hinge.half {
+            hinge.asin
+        } else {
+            x.asin()
+        };
         (a / x, (x / (1.0 - x * x).sqrt() - a) / (8.0 * x * x * x))
     };
     let s = 2.0 * e_q;

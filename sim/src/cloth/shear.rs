@@ -68,7 +68,7 @@ impl AngleLaw for Shear {
     /// with `H_γ` the Hessian of `γ = asin f`.
     #[inline]
     fn damping(g: &AngleGeom, k: Real, rate: [Vec3; 2], mode: JacobianMode) -> Option<ArmDamping> {
-        let cos = g.sin().max(1e-9);
+        let cos = g.sin.max(1e-9);
         let j = [g.g1, g.g2];
         let c = k / (cos * cos);
         let jr = j[0].dot(&rate[0]) + j[1].dot(&rate[1]);
@@ -107,7 +107,7 @@ impl AngleLaw for Shear {
         let (_, e_q, e_qq) = energy_of_square(gamma * gamma, c1, c0);
         // NOTE: collinear arms (γ = ±π/2) are a degenerate quad; the clamp
         // keeps the numbers finite while the springs restore it.
-        let cos = g.sin().max(1e-9);
+        let cos = g.sin.max(1e-9);
         // q = γ²: q_f = 2γ / cos γ, q_ff = 2 / cos² γ + 2 γ f / cos³ γ.
         let q_f = 2.0 * gamma / cos;
         let hess = match mode {
