@@ -177,6 +177,37 @@ pub fn update_sum<T: Send>(out: &mut [T], f: impl Fn(usize, &mut [T]) -> Real + 
     partials.into_iter().sum()
 }
 
+/// [`update_sum`] over two slices of the same length, cut into the same
+/// chunks: `f(start, a_chunk, b_chunk)` may write both and returns its
+/// chunk's share of the sum (two updates and a sum in one pass, bit for
+/// bit the separate passes' results).
+pub fn update_sum2<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    f: impl Fn(usize, &mut [A], &mut [B]) -> Real + Sync,
+) -> Real {
+    assert_eq!(a.len(), b.len(), "update_sum2 over slices of two lengths");
+    if piece_len(a.len(), PARALLEL_MIN).is_none() {
+        return a
+            .chunks_mut(CHUNK)
+            .zip(b.chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(c, (x, y))| f(c * CHUNK, x, y))
+            .sum();
+    }
+    // A chunk of each slice and its partial sum.
+    type Piece<'p, A, B> = ((&'p mut [A], &'p mut [B]), &'p mut Real);
+    let mut partials = vec![0.0; a.len().div_ceil(CHUNK)];
+    each(
+        a.chunks_mut(CHUNK)
+            .zip(b.chunks_mut(CHUNK))
+            .zip(&mut partials)
+            .enumerate(),
+        |(c, ((x, y), p)): (usize, Piece<'_, A, B>)| *p = f(c * CHUNK, x, y),
+    );
+    partials.into_iter().sum()
+}
+
 /// `aᵀ b`.
 pub fn dot(a: &[Vec3], b: &[Vec3]) -> Real {
     sum(a.len(), |r| {
@@ -291,6 +322,22 @@ mod tests {
                 let twice: Vec<Vec3> = a.iter().map(|v| v * 1.5).collect();
                 assert_eq!(scaled, twice);
                 assert_eq!(fused.to_bits(), dot(&a, &twice).to_bits());
+                // Two updates fused with the sum of one.
+                let (mut left, mut right) = (a.clone(), a.clone());
+                let fused2 = update_sum2(&mut left, &mut right, |start, l, r| {
+                    l.iter_mut()
+                        .zip(r.iter_mut())
+                        .enumerate()
+                        .map(|(k, (l, r))| {
+                            *l *= 1.5;
+                            *r -= a[start + k] * 0.5;
+                            r.dot(r)
+                        })
+                        .sum()
+                });
+                let half: Vec<Vec3> = a.iter().map(|v| v - v * 0.5).collect();
+                assert_eq!((&left, &right), (&twice, &half));
+                assert_eq!(fused2.to_bits(), dot(&half, &half).to_bits());
                 (d, out, rows)
             })
         };

@@ -15,6 +15,21 @@
 use super::coupling::Coupling;
 use crate::math::{Mat3, Real, Vec3};
 
+/// `v = S v`, returning `uᵀ v` (after the filter) in one pass: bit for
+/// bit the filter's pass and then `parallel::dot(u, v)`.
+pub fn filter_and_dot(s: &[Filter], v: &mut [Vec3], u: &[Vec3]) -> Real {
+    crate::parallel::update_sum(v, |start, chunk| {
+        chunk
+            .iter_mut()
+            .enumerate()
+            .map(|(k, x)| {
+                *x = s[start + k].apply(x);
+                u[start + k].dot(x)
+            })
+            .sum()
+    })
+}
+
 /// The filter `S_i`: which directions of particle `i` the solve may change.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum Filter {

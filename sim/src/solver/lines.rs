@@ -21,10 +21,10 @@
 //! break the factorisation.
 
 use super::bsr::BlockCsr;
-use super::constraints::Filter;
+use super::constraints::{Filter, filter_and_dot};
 use super::multigrid::{Direction, Entry, GridMatrix, LineFamily, LineScratch, Vec3f};
 use super::precond::Preconditioner;
-use crate::math::Vec3;
+use crate::math::{Real, Vec3};
 
 /// Lines across that a sweep couples a line to (`LineFamily::new`): one,
 /// so the lines of a family fall in two colours, and the bending
@@ -83,9 +83,49 @@ impl Preconditioner for AlternatingLines {
     }
 
     fn apply(&mut self, _a: &BlockCsr, _filter: &[Filter], r: &[Vec3], out: &mut [Vec3]) {
-        let Some((_, warp, weft)) = &self.parts else {
+        if self.relax(r) {
+            for (o, x) in out.iter_mut().zip(&self.x) {
+                *o = x.cast::<f64>();
+            }
+        } else {
             out.copy_from_slice(r);
-            return;
+        }
+    }
+
+    /// The sweep's result widened, filtered and multiplied by `r` in one
+    /// pass.
+    fn apply_filtered(
+        &mut self,
+        a: &BlockCsr,
+        filter: &[Filter],
+        r: &[Vec3],
+        out: &mut [Vec3],
+    ) -> Real {
+        if !self.relax(r) {
+            self.apply(a, filter, r, out);
+            return filter_and_dot(filter, out, r);
+        }
+        let x = &self.x;
+        crate::parallel::update_sum(out, |start, chunk| {
+            chunk
+                .iter_mut()
+                .enumerate()
+                .map(|(k, o)| {
+                    let i = start + k;
+                    *o = filter[i].apply(&x[i].cast::<f64>());
+                    r[i].dot(o)
+                })
+                .sum()
+        })
+    }
+}
+
+impl AlternatingLines {
+    /// The symmetric sweep of `r` into `self.x`; `false` before the first
+    /// update (no lines yet).
+    fn relax(&mut self, r: &[Vec3]) -> bool {
+        let Some((_, warp, weft)) = &self.parts else {
+            return false;
         };
         self.b.clear();
         self.b.extend(r.iter().map(|v| v.cast::<f32>()));
@@ -96,9 +136,7 @@ impl Preconditioner for AlternatingLines {
         weft.sweep(&self.b, &mut self.x, true, Entry::Any, s);
         weft.sweep(&self.b, &mut self.x, false, Entry::AfterReverse, s);
         warp.sweep(&self.b, &mut self.x, false, Entry::Any, s);
-        for (o, x) in out.iter_mut().zip(&self.x) {
-            *o = x.cast::<f64>();
-        }
+        true
     }
 }
 #[cfg(test)]

@@ -7,8 +7,8 @@
 //! constraints.
 
 use super::bsr::BlockCsr;
-use super::constraints::Filter;
-use crate::math::{Mat3, Vec3};
+use super::constraints::{Filter, filter_and_dot};
+use crate::math::{Mat3, Real, Vec3};
 
 /// `out ≈ A⁻¹ r` for a symmetric positive definite `A`.
 pub trait Preconditioner: Send + std::fmt::Debug {
@@ -19,6 +19,20 @@ pub trait Preconditioner: Send + std::fmt::Debug {
     /// Applies the (symmetric positive definite) approximate inverse of the
     /// filtered matrix to `r`; `a` and `filter` are the ones of `update`.
     fn apply(&mut self, a: &BlockCsr, filter: &[Filter], r: &[Vec3], out: &mut [Vec3]);
+    /// [`Self::apply`], then `out = S out`, returning `rᵀ out`: what each
+    /// CG iteration asks. PERF: a preconditioner that ends in a pass over
+    /// `out` folds the filter and the product into it (one pass less an
+    /// iteration), bit for bit this default's result.
+    fn apply_filtered(
+        &mut self,
+        a: &BlockCsr,
+        filter: &[Filter],
+        r: &[Vec3],
+        out: &mut [Vec3],
+    ) -> Real {
+        self.apply(a, filter, r, out);
+        filter_and_dot(filter, out, r)
+    }
 }
 
 /// Inverse of the scalar diagonal of `A` (the paper's choice).

@@ -43,7 +43,7 @@
 //! fixed chunks, so the result does not depend on the thread count.
 
 use super::bsr::BlockCsr;
-use super::constraints::Filter;
+use super::constraints::{Filter, filter_and_dot};
 use super::coupling::{self, Remote};
 use super::precond::Preconditioner;
 use crate::math::{Real, Vec3};
@@ -129,21 +129,6 @@ impl MpcgWorkspace {
     }
 }
 
-/// `v = S v`, returning `uᵀ v` (after the filter) in one pass: bit for
-/// bit the filter's pass and then `dot(u, v)`.
-fn filter_and_dot(s: &[Filter], v: &mut [Vec3], u: &[Vec3]) -> Real {
-    parallel::update_sum(v, |start, chunk| {
-        chunk
-            .iter_mut()
-            .enumerate()
-            .map(|(k, x)| {
-                *x = s[start + k].apply(x);
-                u[start + k].dot(x)
-            })
-            .sum()
-    })
-}
-
 /// The system `(A + R) dv = b` with filters `S` and targets `z`.
 #[derive(Debug, Clone, Copy)]
 pub struct Problem<'a> {
@@ -219,8 +204,7 @@ pub fn iterate(
         if iterations >= opts.max_iterations {
             break SolveStatus::MaxIterations;
         }
-        precond.apply(a, s, &ws.r, &mut ws.s);
-        let delta_new = filter_and_dot(s, &mut ws.s, &ws.r);
+        let delta_new = precond.apply_filtered(a, s, &ws.r, &mut ws.s);
         if !delta_new.is_finite() {
             break SolveStatus::Breakdown;
         }
@@ -253,17 +237,15 @@ pub fn iterate(
         }
         let alpha = delta / curvature;
         ws.lanczos.push(alpha, beta);
+        // dv += alpha c and r -= alpha q, with |r|², in one pass.
         let (c, q) = (&ws.c, &ws.q);
-        parallel::for_chunks(dv, |start, d| {
-            for (k, d) in d.iter_mut().enumerate() {
-                *d += c[start + k] * alpha;
-            }
-        });
-        rnorm = parallel::update_sum(&mut ws.r, |start, r| {
-            r.iter_mut()
-                .zip(&q[start..])
-                .map(|(r, q)| {
-                    *r -= q * alpha;
+        rnorm = parallel::update_sum2(dv, &mut ws.r, |start, d, r| {
+            d.iter_mut()
+                .zip(r.iter_mut())
+                .enumerate()
+                .map(|(k, (d, r))| {
+                    *d += c[start + k] * alpha;
+                    *r -= q[start + k] * alpha;
                     r.dot(r)
                 })
                 .sum()
