@@ -49,6 +49,20 @@ impl<'a, T: Copy> Disjoint<'a, T> {
         unsafe { self.ptr.add(i).read() }
     }
 
+    /// Elements `range` as a slice of their own.
+    ///
+    /// # Safety
+    ///
+    /// No other thread reads or writes any of them while the slice lives.
+    #[allow(unsafe_code, clippy::mut_from_ref)]
+    #[inline(always)]
+    pub unsafe fn slice(&self, range: std::ops::Range<usize>) -> &mut [T] {
+        assert!(range.start <= range.end && range.end <= self.len);
+        // SAFETY: in bounds (checked), and accessed by no one else while
+        // the slice lives (the caller's promise).
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(range.start), range.len()) }
+    }
+
     /// Sets element `i` to `value`.
     ///
     /// # Safety

@@ -16,9 +16,12 @@
 //! a caller's own ([`with_threads`]). A loop started inside another
 //! loop's task, or while another job (in the service) has the team, runs
 //! on its own thread; so do a run's loops while its [`Tuner`] measured
-//! them faster alone.
+//! them faster alone. Stages of tasks that wait only for their
+//! neighbours in earlier stages run as one [`Flow`] ([`in_stages`]),
+//! without a barrier between stages.
 
 mod disjoint;
+mod flow;
 mod team;
 mod tuner;
 
@@ -27,6 +30,7 @@ use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
 pub use disjoint::Disjoint;
+pub use flow::Flow;
 pub use team::Team;
 pub use tuner::Tuner;
 
@@ -129,6 +133,16 @@ pub fn each<P: Send>(items: impl IntoIterator<Item = P>, f: impl Fn(P) + Sync) {
             });
         }
     });
+}
+
+/// [`Flow::run`] on the team loops started on this thread use: stages of
+/// tasks, each task run once the tasks of earlier stages it needs are.
+pub fn in_stages<N, T>(flow: &mut Flow, stages: &[usize], min: usize, needs: N, task: T)
+where
+    N: Fn(usize, usize, &mut dyn FnMut(usize, Range<usize>)) + Sync,
+    T: Fn(usize, usize) + Sync,
+{
+    with_team(|team| flow.run(team, stages, min, needs, task));
 }
 
 /// Elements per piece when `n` elements are spread (`None`: not spread),

@@ -243,7 +243,13 @@ impl Drop for Team {
 /// cache lines it already holds, and only the pieces where they meet
 /// change hands.
 fn claim(s: &Shared, front: bool) -> Option<usize> {
-    let mut cur = s.state.load(Acquire);
+    claim_from(&s.state, front)
+}
+
+/// [`claim`] on any word `end << 32 | next` of unclaimed indices
+/// (`super::flow` keeps one per stage).
+pub(super) fn claim_from(state: &AtomicU64, front: bool) -> Option<usize> {
+    let mut cur = state.load(Acquire);
     loop {
         let (end, next) = (cur >> 32, cur & 0xffff_ffff);
         if next >= end {
@@ -254,7 +260,7 @@ fn claim(s: &Shared, front: bool) -> Option<usize> {
         } else {
             (cur - (1 << 32), end - 1)
         };
-        match s.state.compare_exchange_weak(cur, new, AcqRel, Acquire) {
+        match state.compare_exchange_weak(cur, new, AcqRel, Acquire) {
             Ok(_) => return Some(index as usize),
             Err(c) => cur = c,
         }

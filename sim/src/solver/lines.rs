@@ -22,7 +22,7 @@
 
 use super::bsr::BlockCsr;
 use super::constraints::{Filter, filter_and_dot};
-use super::multigrid::{Direction, Entry, GridMatrix, LineFamily, LineScratch, Vec3f};
+use super::multigrid::{Direction, GridMatrix, LineFamily, LineScratch, Vec3f, symmetric_sweep};
 use super::precond::Preconditioner;
 use crate::math::{Real, Vec3};
 
@@ -131,11 +131,7 @@ impl AlternatingLines {
         self.b.extend(r.iter().map(|v| v.cast::<f32>()));
         self.x.clear();
         self.x.resize(r.len(), Vec3f::zeros());
-        let s = &mut self.scratch;
-        warp.sweep(&self.b, &mut self.x, true, Entry::Zero, s);
-        weft.sweep(&self.b, &mut self.x, true, Entry::Any, s);
-        weft.sweep(&self.b, &mut self.x, false, Entry::AfterReverse, s);
-        warp.sweep(&self.b, &mut self.x, false, Entry::Any, s);
+        symmetric_sweep(warp, weft, &self.b, &mut self.x, &mut self.scratch);
         true
     }
 }

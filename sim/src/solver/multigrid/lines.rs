@@ -41,6 +41,7 @@ use super::lanes::{
 };
 use super::line_factor::{self, NodeBlocks, NodeFactor, ZERO_FACTOR};
 use crate::parallel::{self, Disjoint};
+use std::ops::Range;
 
 /// The lines' direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,6 +62,9 @@ pub enum Direction {
 pub struct LineFamily {
     direction: Direction,
     len: usize,
+    /// Lines of the family, and how many lines across a sweep reaches.
+    lines: usize,
+    reach: usize,
     /// The first pack of each colour, and the end of the last.
     colour_start: Vec<usize>,
     /// The line in each lane of each pack ([`MISSING`]: padding).
@@ -111,7 +115,9 @@ const MISSING: u32 = u32::MAX;
 /// be solved at once.
 #[derive(Debug, Clone, Default)]
 pub struct LineScratch {
-    packs: Vec<VecLanes>,
+    pub(super) packs: Vec<VecLanes>,
+    /// The stages of a sweep run as one flow (`super::symmetric`).
+    pub(super) flow: parallel::Flow,
 }
 
 impl LineFamily {
@@ -187,6 +193,8 @@ impl LineFamily {
         let mut f = Self {
             direction,
             len,
+            lines,
+            reach: reach as usize,
             colour_start,
             pack_lines,
             nodes,
@@ -296,34 +304,88 @@ impl LineFamily {
     ) {
         let len = self.len;
         scratch.packs.resize(self.factors.len(), ZERO_VEC);
-        let first = usize::from(entry == Entry::AfterReverse);
-        let colours = self.colour_start.len() - 1;
-        for c in first..colours {
-            let colour = if forward { c } else { colours - 1 - c };
-            let coupled = !(c == 0 && entry == Entry::Zero);
-            let packs = self.colour_start[colour]..self.colour_start[colour + 1];
+        for (colour, coupled) in self.order(forward, entry) {
+            let packs = self.packs(colour);
             let out = &mut scratch.packs[packs.start * len..packs.end * len];
             let shared = Disjoint::new(&mut *x);
             parallel::for_rows(out, len, SWEEP_PARALLEL_MIN, |k, out| {
-                let pack = packs.start + k;
-                self.solve_pack(pack, b, &shared, coupled, out);
-                for lane in 0..LANES {
-                    if self.pack_lines[pack * LANES + lane] == MISSING {
-                        continue;
-                    }
-                    for (t, v) in out.iter().enumerate() {
-                        let p = self.nodes[pack * len + t][lane] as usize;
-                        // SAFETY: `p` is on this pack's own line, which no
-                        // other pack reads or writes in this colour (module
-                        // doc: lines of one colour are `reach + 1` apart,
-                        // and a sweep's couplings reach `reach`).
-                        #[allow(unsafe_code)]
-                        unsafe {
-                            shared.write(p, get_vec(v, lane));
-                        }
-                    }
-                }
+                self.relax_pack(packs.start + k, b, &shared, coupled, out);
             });
+        }
+    }
+
+    /// The colours a sweep relaxes, in order, each with whether its packs
+    /// read the other lines (not the first colour from [`Entry::Zero`];
+    /// not at all the first colour after [`Entry::AfterReverse`]).
+    pub fn order(&self, forward: bool, entry: Entry) -> impl Iterator<Item = (usize, bool)> {
+        let colours = self.colour_start.len() - 1;
+        let first = usize::from(entry == Entry::AfterReverse);
+        (first..colours).map(move |c| {
+            let colour = if forward { c } else { colours - 1 - c };
+            (colour, !(c == 0 && entry == Entry::Zero))
+        })
+    }
+
+    /// The packs of colour `colour`.
+    pub fn packs(&self, colour: usize) -> Range<usize> {
+        self.colour_start[colour]..self.colour_start[colour + 1]
+    }
+
+    /// A pack's buffer in a sweep (its lines' length), and all packs'.
+    pub fn buffers(&self) -> (usize, usize) {
+        (self.len, self.factors.len())
+    }
+
+    /// Whether relaxing colour `colour` is worth spreading over threads.
+    pub fn spread(&self, colour: usize) -> bool {
+        self.packs(colour).len() * self.len >= SWEEP_PARALLEL_MIN
+    }
+
+    /// Lines across that a sweep reaches, and the family's lines.
+    pub fn reach(&self) -> (usize, usize) {
+        (self.reach, self.lines)
+    }
+
+    /// The lines of pack `pack` (padding left out).
+    pub fn lines_in(&self, pack: usize) -> impl Iterator<Item = usize> + '_ {
+        let lanes = &self.pack_lines[pack * LANES..(pack + 1) * LANES];
+        lanes.iter().filter(|&&l| l != MISSING).map(|&l| l as usize)
+    }
+
+    /// The pack holding line `line`, and its colour.
+    pub fn pack_of(&self, line: usize) -> (usize, usize) {
+        let colours = self.colour_start.len() - 1;
+        let colour = line % colours;
+        (self.colour_start[colour] + line / colours / LANES, colour)
+    }
+
+    /// Solves pack `pack`'s lines ([`Self::solve_pack`]) into `out` and
+    /// writes their nodes of `x`.
+    #[inline]
+    pub fn relax_pack(
+        &self,
+        pack: usize,
+        b: &[Vec3f],
+        x: &Disjoint<'_, Vec3f>,
+        coupled: bool,
+        out: &mut [VecLanes],
+    ) {
+        self.solve_pack(pack, b, x, coupled, out);
+        for lane in 0..LANES {
+            if self.pack_lines[pack * LANES + lane] == MISSING {
+                continue;
+            }
+            for (t, v) in out.iter().enumerate() {
+                let p = self.nodes[pack * self.len + t][lane] as usize;
+                // SAFETY: `p` is on this pack's own line, which no other
+                // pack reads or writes in this colour (module doc: lines
+                // of one colour are `reach + 1` apart, and a sweep's
+                // couplings reach `reach`).
+                #[allow(unsafe_code)]
+                unsafe {
+                    x.write(p, get_vec(v, lane));
+                }
+            }
         }
     }
 

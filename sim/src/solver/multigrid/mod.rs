@@ -9,9 +9,11 @@ mod hierarchy;
 mod lanes;
 mod line_factor;
 mod lines;
+mod symmetric;
 mod transfer;
 
 pub use grid_matrix::{Block, GridMatrix, Vec3f};
 pub use hierarchy::{CycleShape, Multigrid};
 pub use lines::{Direction, Entry, LineFamily, LineScratch};
+pub use symmetric::symmetric_sweep;
 pub use transfer::{Axis, Transfer};
