@@ -92,11 +92,16 @@ impl Cone {
     /// [`Cone::WHOLE`] if one of them is (numerically) zero, since it has
     /// no direction to bound, or if they spread too far.
     pub fn holding(vectors: &[Vec3]) -> Self {
-        let scale = vectors.iter().map(|v| v.norm()).fold(0.0, Real::max);
+        // PERF: each norm taken once (at most three vectors).
+        let mut norms = [0.0; 3];
+        for (n, v) in norms.iter_mut().zip(vectors) {
+            *n = v.norm();
+        }
+        let scale = norms.iter().fold(0.0, |a: Real, &b| a.max(b));
         let mut units = [Vec3::zeros(); 3];
         let mut sum = Vec3::zeros();
         for (k, v) in vectors.iter().enumerate() {
-            let n = v.norm();
+            let n = norms.get(k).copied().unwrap_or_else(|| v.norm());
             if n == 0.0 || n <= 1e-12 * scale {
                 return Self::WHOLE;
             }
