@@ -41,6 +41,9 @@ pub struct GridMatrix {
     /// ([`NOWHERE`] for an offset the stencil lacks): the pattern is fixed,
     /// so the grid arithmetic is done once.
     from_csr: Vec<u32>,
+    /// Per node, whether `from_csr` fills every one of its blocks (so
+    /// [`Self::set_prefiltered`] need not zero its row first).
+    filled: Vec<bool>,
 }
 
 /// A slot with no place in the stencil.
@@ -68,6 +71,7 @@ impl GridMatrix {
             offsets,
             slot,
             from_csr: Vec::new(),
+            filled: Vec::new(),
         }
     }
 
@@ -160,14 +164,25 @@ impl GridMatrix {
     /// the filtered system MPCG solves; the blocked directions decouple,
     /// held invertible at the matrix's own scale.
     pub fn set_prefiltered(&mut self, a: &BlockCsr, filter: &[Filter]) {
+        let k = self.offsets.len();
         if self.from_csr.len() != a.nnz() {
             self.from_csr = self.places_of(a);
+            self.filled = (0..a.rows())
+                .map(|p| {
+                    let mut hit = vec![false; k];
+                    for s in a.row_slots(p).filter(|&s| self.from_csr[s] != NOWHERE) {
+                        hit[self.from_csr[s] as usize - p * k] = true;
+                    }
+                    hit.iter().all(|&h| h)
+                })
+                .collect();
         }
         // Row `p` owns `values[p k .. (p + 1) k]`: rows on the team.
-        let k = self.offsets.len();
-        let from_csr = &self.from_csr;
+        let (from_csr, filled) = (&self.from_csr, &self.filled);
         parallel::for_rows(&mut self.values, k, parallel::ROWS_MIN * k, |p, row| {
-            row.fill(Block::zeros());
+            if !filled[p] {
+                row.fill(Block::zeros());
+            }
             let free = filter[p] == Filter::Free;
             for s in a.row_slots(p) {
                 let at = from_csr[s];
