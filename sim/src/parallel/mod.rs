@@ -108,6 +108,13 @@ pub fn threads() -> usize {
     with_team(|t| t.threads())
 }
 
+/// Whether a loop started on this thread now would be shared (helpers,
+/// not inside a task, not set alone by the [`Tuner`]): for a caller whose
+/// way of cutting work costs something only worth paying when shared.
+pub fn sharing() -> bool {
+    with_team(|t| t.threads() > 1 && t.can_share())
+}
+
 /// Takes what `m` holds, poisoned or not.
 fn take<T>(m: &Mutex<Option<T>>) -> Option<T> {
     m.lock().unwrap_or_else(|p| p.into_inner()).take()

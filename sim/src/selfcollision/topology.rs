@@ -266,8 +266,10 @@ impl ClothMesh {
         let mut seeds = std::mem::take(&mut self.seeds);
         let mut scratch = std::mem::take(&mut self.contour_scratch);
         let this = &*self;
+        // Alone, one seed: the whole descent, with no opening of seeds.
+        let target = if parallel::sharing() { SEEDS } else { 1 };
         this.tri_bvh
-            .self_pair_seeds(SEEDS, |node| flat(this, node, &mut scratch), &mut seeds);
+            .self_pair_seeds(target, |node| flat(this, node, &mut scratch), &mut seeds);
         // Sixteen pieces a thread: the seeds' descents differ tenfold in
         // cost (a fold against a flat patch), and with four a thread one
         // core waited on the other's last piece (docs/benchmarks.md 1r).
@@ -435,10 +437,13 @@ fn not_one_of<const N: usize>(these: [u32; N], v: u32) -> bool {
     apart
 }
 
-/// Seeds of the triangle hierarchy's self-descent shared out per gather:
-/// enough for two threads to balance, few enough that opening them (on
-/// the caller) costs nothing.
-const SEEDS: usize = 64;
+/// Seeds of the triangle hierarchy's self-descent shared out per gather.
+/// The seeds are the descent's first tasks in its own order, opened depth
+/// first, so a few of them hold most of its pairs: with 64, two threads
+/// gathered sphere-drape-30's plans only 1.15× faster than one; with
+/// 1,024, 1.7×, for ~35 µs of opening on the caller a gather
+/// (docs/benchmarks.md 1s).
+const SEEDS: usize = 1024;
 
 /// Two lists of pairs a gather fills.
 #[derive(Debug, Clone, Default)]
