@@ -441,8 +441,8 @@ fn not_one_of<const N: usize>(these: [u32; N], v: u32) -> bool {
 /// The seeds are the descent's first tasks in its own order, opened depth
 /// first, so a few of them hold most of its pairs: with 64, two threads
 /// gathered sphere-drape-30's plans only 1.15× faster than one; with
-/// 1,024, 1.7×, for ~35 µs of opening on the caller a gather
-/// (docs/benchmarks.md 1s).
+/// 1,024, 1.4× (the descents 1.7×, after ~35 µs of opening on the caller
+/// a gather; docs/benchmarks.md 1s).
 const SEEDS: usize = 1024;
 
 /// Two lists of pairs a gather fills.

@@ -377,10 +377,10 @@ impl LineFamily {
             }
             for (t, v) in out.iter().enumerate() {
                 let p = self.nodes[pack * self.len + t][lane] as usize;
-                // SAFETY: `p` is on this pack's own line, which no other
-                // pack reads or writes in this colour (module doc: lines
-                // of one colour are `reach + 1` apart, and a sweep's
-                // couplings reach `reach`).
+                // SAFETY: `p` is on this pack's own line, untouched by the
+                // packs running meanwhile: others of its colour (lines of a
+                // colour are `reach + 1` apart, couplings reach `reach`), or
+                // in a flow (`super::symmetric`) those not near this one.
                 #[allow(unsafe_code)]
                 unsafe {
                     x.write(p, get_vec(v, lane));
