@@ -12,6 +12,7 @@ mod contact;
 mod features;
 mod meshsurface;
 mod obstacles;
+mod paths;
 mod pose;
 mod scratch;
 mod stage;

@@ -20,6 +20,10 @@ pub struct CollisionCounters {
     pub redone: usize,
 }
 
+/// A piece of the path test: its crossings, `(particle, obstacle)`, and
+/// the hierarchy nodes it visited.
+pub(super) type PathPiece = (Vec<(u32, u32)>, u64);
+
 /// The collision stage's per-step buffers.
 #[derive(Debug, Default)]
 pub struct CollisionScratch {
@@ -37,6 +41,8 @@ pub struct CollisionScratch {
     pub(super) group: Vec<(Contact, Plan)>,
     /// Crossings found by the last test, `(particle, obstacle)`.
     pub(super) found: Vec<(u32, u32)>,
+    /// The path test's pieces (`super::paths`).
+    pub(super) pieces: Vec<PathPiece>,
     /// Contacts the last accepted step released, with the velocity change
     /// their hold took away (`Self::released`).
     pub(super) released: Vec<(u32, Vec3)>,

@@ -16,9 +16,8 @@
 //! stage; a static obstacle has no poses to compute; an obstacle whose box
 //! misses the cloth's box (over the whole step) is skipped before its
 //! hierarchy is touched, and so is each particle whose path box misses it.
+//! The paths are tested on the team (`super::paths`).
 
-use super::aabb::Aabb;
-use super::collider::Collider;
 use super::contact::{self, Contact, Plan};
 use super::obstacles::Obstacles;
 use super::scratch::CollisionScratch;
@@ -49,7 +48,7 @@ const LOAD_MEMORY: Real = 0.2;
 /// sphere-drape-30 once contacts remember their load, and let the stress
 /// suite's needle bed stretch 6.3 % (Euler) and 9.4 % (BDF2) instead of
 /// 0.9 % and 3.7 %.
-const ON_SURFACE: Real = 1e-3;
+pub(super) const ON_SURFACE: Real = 1e-3;
 
 /// A contact is released when its normal impulse pulls inward by more
 /// than this fraction of the particle's weight impulse `m |g| h`: the
@@ -250,7 +249,7 @@ impl CollisionStage<'_> {
         }
     }
 
-    fn has_contact(&self, i: usize, k: usize) -> bool {
+    pub(super) fn has_contact(&self, i: usize, k: usize) -> bool {
         let (i, k) = (i as u32, k as u32);
         self.contacts
             .binary_search_by(|c| (c.particle, c.obstacle).cmp(&(i, k)))
@@ -277,62 +276,6 @@ impl CollisionStage<'_> {
             slip: rel - normal * normal.dot(&rel),
         };
         (plan, nodes)
-    }
-
-    /// Tests every free particle's path `a[i] -> b[i]` against every
-    /// obstacle whose swept box meets the paths' box, leaving in
-    /// `scratch.found` each `(particle, obstacle)` crossing that
-    /// `accept(obstacle, end)` keeps, where `end` is the path's end in the
-    /// obstacle's frame.
-    fn crossings(
-        &mut self,
-        a: &[Vec3],
-        b: &[Vec3],
-        pinned: &[bool],
-        inside_start: bool,
-        mut accept: impl FnMut(&Collider, &Vec3, &mut u64) -> bool,
-    ) {
-        let mut found = std::mem::take(&mut self.scratch.found);
-        found.clear();
-        // The paths' box: an obstacle sweeping clear of it is skipped whole.
-        let cloth = Aabb::of_points(a).union(&Aabb::of_points(b));
-        for (k, c) in self.obstacles.colliders().iter().enumerate() {
-            let world = self.scratch.swept[k];
-            if !world.overlaps(&cloth) {
-                continue;
-            }
-            let (p0, p1) = self.scratch.poses[k];
-            let local_bounds = c.surface.bounds();
-            for i in 0..a.len() {
-                if pinned[i]
-                    || !Aabb::of_segment(&a[i], &b[i]).overlaps(&world)
-                    || self.has_contact(i, k)
-                {
-                    continue;
-                }
-                let la = p0.inverse_transform_point(&a[i].into()).coords;
-                let lb = p1.inverse_transform_point(&b[i].into()).coords;
-                let mut nodes = 0;
-                let hit = c.surface.first_hit(&la, &lb, &mut nodes).is_some();
-                let keep = if hit {
-                    accept(c, &lb, &mut nodes)
-                } else {
-                    // Already inside (initial overlap, or a miss): the
-                    // nearest offset-surface point pushes it out.
-                    // A particle left exactly on the surface (a released
-                    // contact) is not inside: round-off must not re-make it.
-                    inside_start
-                        && local_bounds.contains(&la)
-                        && c.surface.project(&la, &mut nodes).distance
-                            < -ON_SURFACE * c.surface.offset() - 1e-12
-                };
-                self.scratch.counters.nodes += nodes;
-                if keep {
-                    found.push((i as u32, k as u32));
-                }
-            }
-        }
-        self.scratch.found = found;
     }
 
     /// Adds the crossings of the last test as new contacts.
