@@ -7,7 +7,7 @@
 //!
 //! seven stages with two colours a family (the backward weft sweep skips
 //! the colour the forward one ended with). Within a family's run of
-//! stages a pack waits only for the packs near it ([`LineFamily::near`])
+//! stages a pack waits only for the packs near it ([`near`])
 //! in the run's earlier stages: those whose lines it reads, and those
 //! that read the lines it writes. The first stage of a run waits for
 //! every stage before it, as each line of one family crosses every line
@@ -21,7 +21,8 @@ use std::ops::Range;
 
 /// The packs of colour `colour` whose lines pack `pack` reads, or which
 /// read the lines it writes: those with a line within the sweep's reach
-/// of one of its own (in its own colour, itself).
+/// of one of its own (in its own colour, itself; none, an empty range at
+/// the colour's start).
 fn near(family: &LineFamily, pack: usize, colour: usize) -> Range<usize> {
     let (reach, lines) = family.reach();
     let (mut lo, mut hi) = (usize::MAX, 0);
@@ -33,7 +34,12 @@ fn near(family: &LineFamily, pack: usize, colour: usize) -> Range<usize> {
             }
         }
     }
-    if lo > hi { pack..pack } else { lo..hi }
+    if lo > hi {
+        let none = family.packs(colour).start;
+        none..none
+    } else {
+        lo..hi
+    }
 }
 
 /// Most stages a symmetric sweep has: four sweeps of at most three
@@ -150,6 +156,23 @@ mod tests {
             }
         }
         a
+    }
+
+    /// Near packs: on a 40-line family of two colours, a pack's own and
+    /// the other colour's beside it; in a colour with no lines (two lines,
+    /// three colours), an empty range at that colour's start.
+    #[test]
+    fn near_packs_are_those_beside_and_none_is_empty_at_its_colour() {
+        let family = LineFamily::new(Direction::V, &cloth_like(40, 36), 1);
+        // Colour 0 holds lines 0, 2, ..., 38 in packs of four; pack 1 is
+        // lines 8-14, beside lines 7-15 of colour 1 (its packs 0 and 1).
+        let (first0, first1) = (family.packs(0).start, family.packs(1).start);
+        assert_eq!(near(&family, first0 + 1, 0), first0 + 1..first0 + 2);
+        assert_eq!(near(&family, first0 + 1, 1), first1..first1 + 2);
+        let narrow = LineFamily::new(Direction::V, &cloth_like(2, 12), 2);
+        let empty = narrow.packs(2).start;
+        assert!(narrow.packs(2).is_empty());
+        assert_eq!(near(&narrow, 0, 2), empty..empty);
     }
 
     /// The flow gives the four sweeps' `x` bit for bit, with two colours
