@@ -359,43 +359,14 @@ impl LineFamily {
         (self.colour_start[colour] + line / colours / LANES, colour)
     }
 
-    /// Solves pack `pack`'s lines ([`Self::solve_pack`]) into `out` and
-    /// writes their nodes of `x`.
-    #[inline]
-    pub fn relax_pack(
-        &self,
-        pack: usize,
-        b: &[Vec3f],
-        x: &Disjoint<'_, Vec3f>,
-        coupled: bool,
-        out: &mut [VecLanes],
-    ) {
-        self.solve_pack(pack, b, x, coupled, out);
-        for lane in 0..LANES {
-            if self.pack_lines[pack * LANES + lane] == MISSING {
-                continue;
-            }
-            for (t, v) in out.iter().enumerate() {
-                let p = self.nodes[pack * self.len + t][lane] as usize;
-                // SAFETY: `p` is on this pack's own line, untouched by the
-                // packs running meanwhile: others of its colour (lines of a
-                // colour are `reach + 1` apart, couplings reach `reach`), or
-                // in a flow (`super::symmetric`) those not near this one.
-                #[allow(unsafe_code)]
-                unsafe {
-                    x.write(p, get_vec(v, lane));
-                }
-            }
-        }
-    }
-
     /// Solves the blocks of pack `pack`'s lines for `b` minus their
     /// couplings to the other lines at their values in `x` (taken as zero
-    /// unless `coupled`), into `out`. It reads `x` only on lines of other
-    /// colours and, for a neighbour off the grid, at its own nodes
-    /// (times a zero block), which only this pack writes, after this.
+    /// unless `coupled`), into `out`, and writes their nodes of `x`. It
+    /// reads `x` only on lines of other colours and, for a neighbour off
+    /// the grid, at its own nodes (times a zero block), which only this
+    /// pack writes, after this.
     #[inline]
-    fn solve_pack(
+    pub fn relax_pack(
         &self,
         pack: usize,
         b: &[Vec3f],
@@ -448,6 +419,22 @@ impl LineFamily {
                 sub_mul_t(&mut acc, &self.factors[s + 2].prev2, &out[t + 2]);
             }
             out[t] = mul_t(&self.factors[s].inv, &acc);
+        }
+        for lane in 0..LANES {
+            if self.pack_lines[pack * LANES + lane] == MISSING {
+                continue;
+            }
+            for (t, v) in out.iter().enumerate() {
+                let p = self.nodes[at + t][lane] as usize;
+                // SAFETY: `p` is on this pack's own line, untouched by the
+                // packs running meanwhile: others of its colour (lines of a
+                // colour are `reach + 1` apart, couplings reach `reach`), or
+                // in a flow (`super::symmetric`) those not near this one.
+                #[allow(unsafe_code)]
+                unsafe {
+                    x.write(p, get_vec(v, lane));
+                }
+            }
         }
     }
 }
