@@ -89,29 +89,31 @@ impl Cone {
 
     /// A cone holding the directions of `vectors` (at most three: a
     /// triangle's normal coefficients), about their mean direction;
-    /// [`Cone::WHOLE`] if one of them is (numerically) zero, since it has
-    /// no direction to bound, or if they spread too far.
+    /// [`Cone::WHOLE`] for more than three, if one of them is
+    /// (numerically) zero, since it has no direction to bound, or if they
+    /// spread too far.
     pub fn holding(vectors: &[Vec3]) -> Self {
-        // PERF: each norm taken once (at most three vectors).
+        let mut units = [Vec3::zeros(); 3];
+        if vectors.len() > units.len() {
+            return Self::WHOLE;
+        }
+        // PERF: each norm taken once.
         let mut norms = [0.0; 3];
         for (n, v) in norms.iter_mut().zip(vectors) {
             *n = v.norm();
         }
         let scale = norms.iter().fold(0.0, |a: Real, &b| a.max(b));
-        let mut units = [Vec3::zeros(); 3];
         let mut sum = Vec3::zeros();
         for (k, v) in vectors.iter().enumerate() {
-            let n = norms.get(k).copied().unwrap_or_else(|| v.norm());
+            let n = norms[k];
             if n == 0.0 || n <= 1e-12 * scale {
                 return Self::WHOLE;
             }
-            if k < units.len() {
-                units[k] = v / n;
-            }
+            units[k] = v / n;
             sum += v / n;
         }
         let len = sum.norm();
-        if len <= 1e-12 || vectors.len() > units.len() {
+        if len <= 1e-12 {
             return Self::WHOLE;
         }
         let axis = sum / len;

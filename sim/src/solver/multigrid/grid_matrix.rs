@@ -167,13 +167,14 @@ impl GridMatrix {
         let k = self.offsets.len();
         if self.from_csr.len() != a.nnz() {
             self.from_csr = self.places_of(a);
+            // A row's columns are distinct, and so are their offsets: a
+            // row is filled when `k` of its slots have a place.
             self.filled = (0..a.rows())
                 .map(|p| {
-                    let mut hit = vec![false; k];
-                    for s in a.row_slots(p).filter(|&s| self.from_csr[s] != NOWHERE) {
-                        hit[self.from_csr[s] as usize - p * k] = true;
-                    }
-                    hit.iter().all(|&h| h)
+                    a.row_slots(p)
+                        .filter(|&s| self.from_csr[s] != NOWHERE)
+                        .count()
+                        == k
                 })
                 .collect();
         }
