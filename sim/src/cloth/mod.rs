@@ -27,7 +27,7 @@ pub use force::{Force, Sink, arm_blocks};
 pub use grid::Grid;
 pub use model::ForceModel;
 pub use shear::Shear;
-pub use stretch::{Spring, Stretch};
+pub use stretch::{Spring, SpringPair, Stretch};
 
 #[cfg(test)]
 pub(crate) mod fdcheck;

@@ -111,11 +111,36 @@ impl Force for Stretch {
         mode: JacobianMode,
         sink: &mut S,
     ) {
+        if let Some(p) = self.pair(e, x, mode) {
+            let s = &self.springs[e];
+            sink.add_pair(e, [s.a, s.b], p.g, Some(&p.h), None);
+        }
+    }
+}
+
+/// One spring evaluated at a configuration: its direction, `g = ∂E/∂d`
+/// and the Hessian block `∂²E/∂d²`.
+#[derive(Debug, Clone, Copy)]
+pub struct SpringPair {
+    /// `û`, from `b` to `a`.
+    pub u: Vec3,
+    /// `k (l - L) û`.
+    pub g: Vec3,
+    /// `k [û ûᵀ + t (I - û ûᵀ)]`, `t = 1 - L/l` (clamped at 0 for the
+    /// solver).
+    pub h: Mat3,
+}
+
+impl Stretch {
+    /// Spring `e` at `x` in `mode`; `None` when its ends coincide (no
+    /// direction, no force).
+    #[inline]
+    pub fn pair(&self, e: usize, x: &[Vec3], mode: JacobianMode) -> Option<SpringPair> {
         let s = &self.springs[e];
         let d = x[s.a] - x[s.b];
         let l = d.norm();
         if l <= Real::EPSILON * s.rest {
-            return; // coincident particles: no direction, no force
+            return None;
         }
         let u = d / l;
         let uu = outer(&u, &u);
@@ -123,8 +148,11 @@ impl Force for Stretch {
         if mode == JacobianMode::Solver {
             transverse = transverse.max(0.0);
         }
-        let h = (uu + (Mat3::identity() - uu) * transverse) * s.k;
-        sink.add_pair(e, [s.a, s.b], u * (s.k * (l - s.rest)), Some(&h), None);
+        Some(SpringPair {
+            u,
+            g: u * (s.k * (l - s.rest)),
+            h: (uu + (Mat3::identity() - uu) * transverse) * s.k,
+        })
     }
 }
 

@@ -30,6 +30,7 @@ pub mod mpcg;
 pub mod multigrid;
 mod precond;
 mod scheme;
+mod sink;
 mod state;
 
 pub use assemble::{AssemblyInput, System};
