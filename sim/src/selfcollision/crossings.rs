@@ -4,7 +4,6 @@
 //! self-intersects; the acceptance test of self-collision, a statistic of
 //! every frame, and what an outside reader of the frames can recompute.
 
-use super::geometry::segment_crosses_triangle;
 use super::topology::ClothMesh;
 use crate::math::Vec3;
 
@@ -27,19 +26,13 @@ pub fn count_crossings_culled(mesh: &mut ClothMesh, x: &[Vec3]) -> usize {
 
 fn count_pairs(mesh: &mut ClothMesh, x: &[Vec3], cull: bool) -> usize {
     let mut pairs = Vec::new();
-    mesh.edge_face_pairs(cull, &mut pairs);
-    pairs
-        .iter()
-        .filter(|&&(e, t)| {
-            let [p, q] = mesh.edges[e as usize].map(|k| x[k as usize]);
-            let [a, b, c] = mesh.triangles[t as usize].map(|k| x[k as usize]);
-            segment_crosses_triangle(&p, &q, &a, &b, &c)
-        })
-        .count()
+    mesh.crossing_pairs(x, cull, &mut pairs);
+    pairs.len()
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::geometry::segment_crosses_triangle;
     use super::*;
     use crate::cloth::Grid;
     use crate::math::Real;
