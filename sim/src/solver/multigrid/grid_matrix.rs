@@ -185,22 +185,29 @@ impl GridMatrix {
                 row.fill(Block::zeros());
             }
             let free = filter[p] == Filter::Free;
+            // PERF: `S_p A_pq S_q` with the identity factors of free
+            // particles left out (one product, or none, instead of two),
+            // and `S_p` made once a row.
+            let sp = (!free).then(|| filter[p].matrix());
             for s in a.row_slots(p) {
                 let at = from_csr[s];
                 if at == NOWHERE {
                     continue;
                 }
                 let (q, block) = (a.column(s), &a.values[s]);
-                let m: Mat3 = if free && filter[q] == Filter::Free {
-                    *block
-                } else {
-                    let sp = filter[p].matrix();
-                    let mut m = sp * block * filter[q].matrix();
-                    if p == q {
-                        let scale = (block.trace().abs() / 3.0).max(f64::MIN_POSITIVE);
-                        m += (Mat3::identity() - sp) * scale;
+                let sq = (filter[q] != Filter::Free).then(|| filter[q].matrix());
+                let m: Mat3 = match (&sp, &sq) {
+                    (None, None) => *block,
+                    (None, Some(sq)) => block * sq,
+                    (Some(sp), None) => sp * block,
+                    (Some(sp), Some(sq)) => {
+                        let mut m = sp * block * sq;
+                        if p == q {
+                            let scale = (block.trace().abs() / 3.0).max(f64::MIN_POSITIVE);
+                            m += (Mat3::identity() - sp) * scale;
+                        }
+                        m
                     }
-                    m
                 };
                 row[at as usize - p * k] = m.cast::<f32>();
             }
