@@ -93,10 +93,12 @@ impl BlockCsr {
     pub fn mul(&self, x: &[Vec3], y: &mut [Vec3]) {
         crate::parallel::for_chunks_min(y, crate::parallel::ROWS_MIN, |start, chunk| {
             for (k, yi) in chunk.iter_mut().enumerate() {
-                let i = start + k;
+                let slots = self.row_slots(start + k);
                 let mut acc = Vec3::zeros();
-                for s in self.row_ptr[i]..self.row_ptr[i + 1] {
-                    acc += self.values[s] * x[self.col[s] as usize];
+                // PERF: the row's blocks and columns zipped, so only the
+                // read of `x` is bounds-checked.
+                for (m, &j) in self.values[slots.clone()].iter().zip(&self.col[slots]) {
+                    acc += m * x[j as usize];
                 }
                 *yi = acc;
             }

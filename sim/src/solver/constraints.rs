@@ -21,10 +21,10 @@ pub fn filter_and_dot(s: &[Filter], v: &mut [Vec3], u: &[Vec3]) -> Real {
     crate::parallel::update_sum(v, |start, chunk| {
         chunk
             .iter_mut()
-            .enumerate()
-            .map(|(k, x)| {
-                *x = s[start + k].apply(x);
-                u[start + k].dot(x)
+            .zip(s[start..].iter().zip(&u[start..]))
+            .map(|(x, (s, u))| {
+                *x = s.apply(x);
+                u.dot(x)
             })
             .sum()
     })

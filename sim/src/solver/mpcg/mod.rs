@@ -226,8 +226,8 @@ pub fn iterate(
         delta = delta_new;
         let sv = &ws.s;
         parallel::for_chunks(&mut ws.c, |start, chunk| {
-            for (k, c) in chunk.iter_mut().enumerate() {
-                *c = sv[start + k] + *c * beta;
+            for (c, s) in chunk.iter_mut().zip(&sv[start..]) {
+                *c = s + *c * beta;
             }
         });
         problem.apply(&ws.c, &mut ws.q);
@@ -242,10 +242,10 @@ pub fn iterate(
         rnorm = parallel::update_sum2(dv, &mut ws.r, |start, d, r| {
             d.iter_mut()
                 .zip(r.iter_mut())
-                .enumerate()
-                .map(|(k, (d, r))| {
-                    *d += c[start + k] * alpha;
-                    *r -= q[start + k] * alpha;
+                .zip(c[start..].iter().zip(&q[start..]))
+                .map(|((d, r), (c, q))| {
+                    *d += c * alpha;
+                    *r -= q * alpha;
                     r.dot(r)
                 })
                 .sum()
