@@ -154,17 +154,22 @@ impl System {
         couplings(&model.bend, &mut pairs);
         couplings(&model.shear, &mut pairs);
         let a = BlockCsr::with_pattern(n, pairs);
+        // PERF: a spring and its damping share their length, direction and
+        // four blocks: one pass over the springs, not two (sphere-drape-30,
+        // one thread, 3 pairs: assembly 0.35–0.40 → 0.31–0.35 s). The
+        // damping term then has no slots and no elements of its own.
+        let springs_damped = model.damping.damps(&model.stretch);
         let slots = [
             slot_table(&model.stretch, &a),
-            slot_table(&model.damping, &a),
+            if springs_damped {
+                Vec::new()
+            } else {
+                slot_table(&model.damping, &a)
+            },
             slot_table(&model.bend, &a),
             slot_table(&model.shear, &a),
             slot_table(&model.drag, &a),
         ];
-        // PERF: a spring and its damping share their length, direction and
-        // four blocks: one pass over the springs, not two (sphere-drape-30,
-        // one thread, 3 pairs: assembly 0.35–0.40 → 0.31–0.35 s).
-        let springs_damped = model.damping.damps(&model.stretch);
         let count = crate::parallel::threads().min(n / BAND_MIN).max(1);
         let bands = (0..count)
             .map(|k| {

@@ -184,11 +184,10 @@ impl GridMatrix {
             if !filled[p] {
                 row.fill(Block::zeros());
             }
-            let free = filter[p] == Filter::Free;
             // PERF: `S_p A_pq S_q` with the identity factors of free
             // particles left out (one product, or none, instead of two),
             // and `S_p` made once a row.
-            let sp = (!free).then(|| filter[p].matrix());
+            let sp = (filter[p] != Filter::Free).then(|| filter[p].matrix());
             for s in a.row_slots(p) {
                 let at = from_csr[s];
                 if at == NOWHERE {
