@@ -49,6 +49,34 @@ impl<'a, T: Copy> Disjoint<'a, T> {
         unsafe { self.ptr.add(i).read() }
     }
 
+    /// Its length.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether it has no element.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Element `i`, its bounds not checked: for the innermost loops of a
+    /// caller that checked every index it reads against [`Self::len`]
+    /// once, before the loop (PERF: a check per read was 1.6 % of
+    /// sphere-drape-30's instructions, in the line sweep).
+    ///
+    /// # Safety
+    ///
+    /// `i < self.len()`, and no other thread writes element `i` during
+    /// the loop.
+    #[allow(unsafe_code)]
+    #[inline(always)]
+    pub unsafe fn read_unchecked(&self, i: usize) -> T {
+        debug_assert!(i < self.len);
+        // SAFETY: in bounds and not written concurrently (the caller's
+        // promise).
+        unsafe { self.ptr.add(i).read() }
+    }
+
     /// Elements `range` as a slice of their own.
     ///
     /// # Safety

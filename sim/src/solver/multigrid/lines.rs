@@ -64,6 +64,10 @@ pub struct LineFamily {
     len: usize,
     /// Lines of the family, and how many lines across a sweep reaches.
     lines: usize,
+    /// Nodes of the grid: every index in `nodes` and `off_index` is below
+    /// it (checked when they are built), so a sweep checks its vectors'
+    /// lengths against it once instead of each read.
+    grid_nodes: usize,
     reach: usize,
     /// The first pack of each colour, and the end of the last.
     colour_start: Vec<usize>,
@@ -190,10 +194,17 @@ impl LineFamily {
                 }
             }
         }
+        let grid_nodes = a.nu * a.nv;
+        let inside = |v: &[[u32; LANES]]| v.iter().flatten().all(|&p| (p as usize) < grid_nodes);
+        assert!(
+            inside(&nodes) && inside(&off_index),
+            "a line node off the grid"
+        );
         let mut f = Self {
             direction,
             len,
             lines,
+            grid_nodes,
             reach: reach as usize,
             colour_start,
             pack_lines,
@@ -377,12 +388,16 @@ impl LineFamily {
         let len = self.len;
         let at = pack * len;
         let w = self.width;
+        // Every index read below is a node of the grid (`new`).
+        assert!(b.len() == self.grid_nodes && x.len() == self.grid_nodes);
         // rhs, then L y = rhs in the same pass.
         for t in 0..len {
             let s = at + t;
             let mut acc = ZERO_VEC;
             for (lane, &p) in self.nodes[s].iter().enumerate() {
-                set_vec(&mut acc, lane, &b[p as usize]);
+                // SAFETY: `p` is below `grid_nodes` (`new`), `b`'s length.
+                #[allow(unsafe_code)]
+                set_vec(&mut acc, lane, unsafe { b.get_unchecked(p as usize) });
             }
             if coupled {
                 let blocks = &self.off_blocks[s * w..(s + 1) * w];
@@ -390,10 +405,11 @@ impl LineFamily {
                 for (m, q) in blocks.iter().zip(index) {
                     let mut g = ZERO_VEC;
                     for (lane, &p) in q.iter().enumerate() {
-                        // SAFETY: not written by another pack during this
-                        // colour (the doc above).
+                        // SAFETY: below `grid_nodes` (`new`), `x`'s length
+                        // (checked above), and not written by another pack
+                        // during this colour (the doc above).
                         #[allow(unsafe_code)]
-                        let v = unsafe { x.read(p as usize) };
+                        let v = unsafe { x.read_unchecked(p as usize) };
                         set_vec(&mut g, lane, &v);
                     }
                     sub_mul(&mut acc, m, &g);
