@@ -242,11 +242,11 @@ impl Plan {
     /// The pairs of `mesh` for the motion from `x0` to `x1` with pad
     /// `pad`, as [`ClothMesh::feature_pairs`] after [`ClothMesh::refit`]
     /// would list them, less pairs the plan shows cannot meet: from the
-    /// plan, if it holds for this motion and pad (the mesh's vertex boxes
-    /// are then refitted to it, as `refit` would, and each edge's box
-    /// formed once; a triangle's box is the union of its vertices' boxes,
-    /// formed per planned pair, as many as there are triangles). Returns
-    /// whether it did.
+    /// plan, if it holds for this motion and pad. The boxes are the
+    /// query's own, in single precision rounded outward (`query_boxes`:
+    /// the pairs that act are the same), each vertex's and edge's made
+    /// once; a triangle's is the union of its vertices', made per planned
+    /// pair (as many as there are triangles). Returns whether it did.
     pub fn pairs(
         &self,
         mesh: &mut ClothMesh,
@@ -258,12 +258,11 @@ impl Plan {
         if !self.serves(pad) || x1.len() != x0.len() || !self.holds(mesh, x0, |k| x1[k]) {
             return false;
         }
-        mesh.fit_vertex_boxes(x0, x1, pad);
-        mesh.fit_query_edges();
+        mesh.query.fit(x0, x1, pad, &mesh.edges);
         // Pieces of fixed length, on the team, joined in order: the same
         // lists whatever the number of threads.
         let pieces = self.vf.len().max(self.ee.len()).div_ceil(FILTER_PIECE);
-        let (vb, triangles, eb) = (&mesh.vertex_boxes, &mesh.triangles, &mesh.query_edges);
+        let (vb, triangles, eb) = (&mesh.query.vertices, &mesh.triangles, &mesh.query.edges);
         let tri = |t: u32| {
             let [a, b, c] = triangles[t as usize].map(|k| &vb[k as usize]);
             a.union(b).union(c)

@@ -20,6 +20,7 @@ use super::cones::{self, Cone};
 use super::contour::{self, Contours, Sweep};
 use super::geometry::segment_crosses_triangle;
 use super::kept::extend_kept;
+use super::query_boxes::QueryBoxes;
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh, BvhTask as Task};
 use crate::math::{Real, Vec3};
@@ -44,11 +45,10 @@ pub struct ClothMesh {
     cones: Vec<Cone>,
     /// Per triangle, the cone of its normals over the last refit's motion.
     tri_cones: Vec<Cone>,
-    /// Each vertex's swept box of the current query.
+    /// Each vertex's swept box of the last refit's motion.
     pub vertex_boxes: Vec<Aabb>,
-    /// Each edge's swept box of the current planned query
-    /// ([`ClothMesh::fit_query_edges`]).
-    pub(super) query_edges: Vec<Aabb>,
+    /// A planned query's boxes (`super::plan::Plan::pairs`).
+    pub(super) query: QueryBoxes,
     /// Per hierarchy node, its boundary: a flat patch is culled only if
     /// its projected boundary stays simple.
     pub(super) contours: Contours,
@@ -154,7 +154,7 @@ impl ClothMesh {
             seeds: Vec::new(),
             pieces: Vec::new(),
             filtered: Vec::new(),
-            query_edges: Vec::new(),
+            query: QueryBoxes::default(),
             x0: Vec::new(),
             x1: Vec::new(),
             triangles,
@@ -224,16 +224,6 @@ impl ClothMesh {
                 }
             },
         );
-    }
-
-    /// Each edge's box from the vertex boxes (as [`ClothMesh::refit_boxes`]
-    /// makes them), into [`ClothMesh::query_edges`], leaving the
-    /// hierarchy's boxes as they were. PERF: a planned query tests each
-    /// edge against about four others (sphere-drape-30: ~5,000 pairs of
-    /// its 2,581 edges), so its boxes are made once, not once per pair.
-    pub(super) fn fit_query_edges(&mut self) {
-        self.query_edges.resize(self.edges.len(), Aabb::empty());
-        fit_edges(&self.vertex_boxes, &self.edges, &mut self.query_edges);
     }
 
     /// Whether node `node`'s patch cannot meet itself over the last
