@@ -10,7 +10,7 @@
 //! | `contour` | and whose boundary, projected, stays simple |
 //! | `plan` | one descent at the step's start for every query of the step |
 //! | `kept` | candidate lists filtered without a branch per candidate |
-//! | `query_boxes` | a planned query's boxes in single precision, rounded outward |
+//! | `query_boxes` | a query's boxes in single precision, rounded outward |
 //! | `couplings` | layers within the thickness held apart inside the solve |
 //! | `ccd` | continuous vertex–face and edge–edge tests |
 //! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |

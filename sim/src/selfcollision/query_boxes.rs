@@ -1,5 +1,7 @@
-//! A planned query's boxes in single precision, rounded outward, for the
-//! filter that takes a plan's pairs for one motion (`super::plan`).
+//! A query's boxes in single precision, rounded outward: for the filter
+//! that takes a plan's pairs for one motion (`super::plan`), and for the
+//! refitted hierarchy and the pair tests of its descent
+//! (`super::topology`).
 //!
 //! PERF: the filter tests ~6,400 planned pairs a query on sphere-drape-30
 //! (~1,400 vertex–triangle, ~5,000 edge–edge; ~700 kept), two or three
@@ -13,6 +15,7 @@
 //! nothing: the response and the couplings act only on pairs within the
 //! pad, and the frames do not change.
 
+use crate::collision::Aabb;
 use crate::math::{Real, Vec3};
 use crate::parallel;
 
@@ -41,6 +44,15 @@ impl Box32 {
         Self {
             lo: [down(lo.x), down(lo.y), down(lo.z), 0.0],
             hi: [up(hi.x), up(hi.y), up(hi.z), 0.0],
+        }
+    }
+
+    /// The same box in double precision (exactly).
+    pub fn to_aabb(self) -> Aabb {
+        let v = |a: [f32; 4]| Vec3::new(a[0].into(), a[1].into(), a[2].into());
+        Aabb {
+            lo: v(self.lo),
+            hi: v(self.hi),
         }
     }
 
@@ -98,13 +110,15 @@ fn up(v: Real) -> f32 {
 }
 
 /// One query's boxes: each vertex's over its motion, grown by half the
-/// pad, and each edge's, the union of its ends'.
+/// pad, and each edge's and triangle's, the union of its vertices'.
 #[derive(Debug, Clone, Default)]
 pub struct QueryBoxes {
     /// Per vertex.
     pub vertices: Vec<Box32>,
     /// Per edge.
     pub edges: Vec<Box32>,
+    /// Per triangle ([`QueryBoxes::fit_triangles`]).
+    pub triangles: Vec<Box32>,
 }
 
 impl QueryBoxes {
@@ -126,12 +140,27 @@ impl QueryBoxes {
             }
         });
     }
+
+    /// The triangles' boxes, from the vertices' of the last [`Self::fit`].
+    pub fn fit_triangles(&mut self, triangles: &[[u32; 3]]) {
+        self.triangles.resize(triangles.len(), Box32::EMPTY);
+        let vertices = &self.vertices;
+        parallel::for_chunks_min(
+            &mut self.triangles,
+            4 * parallel::ROWS_MIN,
+            |start, boxes| {
+                for (b, t) in boxes.iter_mut().zip(&triangles[start..]) {
+                    let [p, q, r] = t.map(|k| &vertices[k as usize]);
+                    *b = p.union(q).union(r);
+                }
+            },
+        );
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::collision::Aabb;
     use rand::{RngExt, SeedableRng, rngs::StdRng};
 
     /// Every pair of double-precision boxes that overlaps overlaps here
@@ -168,6 +197,8 @@ mod tests {
                 for k in 0..3 {
                     assert!(f.lo[k] as Real <= e.lo[k] && e.hi[k] <= f.hi[k] as Real);
                 }
+                let back = f.to_aabb();
+                assert!(back.lo.x == f.lo[0] as Real && back.hi.z == f.hi[2] as Real);
             }
             let gap = (0..3)
                 .map(|k| (ea.lo[k] - eb.hi[k]).max(eb.lo[k] - ea.hi[k]))

@@ -38,15 +38,18 @@ pub struct ClothMesh {
     /// The vertices and the edges each triangle owns.
     owned: Vec<Owned>,
     pub(super) tri_bvh: Bvh,
+    /// The triangles' boxes the hierarchy is refitted to: those of
+    /// `boxes`, in double precision.
     pub(super) tri_boxes: Vec<Aabb>,
-    pub(super) edge_boxes: Vec<Aabb>,
+    /// Each vertex's, edge's and triangle's box over the last refit's
+    /// motion, in single precision rounded outward (`super::query_boxes`:
+    /// the pairs that act are those of the exact boxes).
+    boxes: QueryBoxes,
     /// Per hierarchy node, the cone of its patch's normals over the last
     /// refit's motion: a flat one cannot meet itself.
     cones: Vec<Cone>,
     /// Per triangle, the cone of its normals over the last refit's motion.
     tri_cones: Vec<Cone>,
-    /// Each vertex's swept box of the last refit's motion.
-    pub vertex_boxes: Vec<Aabb>,
     /// A planned query's boxes (`super::plan::Plan::pairs`).
     pub(super) query: QueryBoxes,
     /// Per hierarchy node, its boundary: a flat patch is culled only if
@@ -65,15 +68,6 @@ pub struct ClothMesh {
     /// The last refit's motion.
     x0: Vec<Vec3>,
     x1: Vec<Vec3>,
-}
-
-/// Each edge's box, the union of its ends' `vertex_boxes`, into `out`.
-fn fit_edges(vertex_boxes: &[Aabb], edges: &[[u32; 2]], out: &mut [Aabb]) {
-    parallel::for_chunks_min(out, 4 * parallel::ROWS_MIN, |start, boxes| {
-        for (b, e) in boxes.iter_mut().zip(&edges[start..]) {
-            *b = vertex_boxes[e[0] as usize].union(&vertex_boxes[e[1] as usize]);
-        }
-    });
 }
 
 impl ClothMesh {
@@ -116,11 +110,6 @@ impl ClothMesh {
             .iter()
             .map(|t| Aabb::of_points(t.iter().map(|&k| &x[k as usize])))
             .collect();
-        let edge_boxes: Vec<Aabb> = edges
-            .iter()
-            .map(|e| Aabb::of_segment(&x[e[0] as usize], &x[e[1] as usize]))
-            .collect();
-        let vertex_boxes: Vec<Aabb> = x.iter().map(|p| Aabb::of_segment(p, p)).collect();
         // Nodes are rectangles of grid quads (both triangles of each), cut
         // across their longer side: every node's boundary is one loop,
         // which the contour test needs (median splits of the triangles
@@ -161,10 +150,9 @@ impl ClothMesh {
             edges,
             owned,
             tri_boxes,
-            edge_boxes,
+            boxes: QueryBoxes::default(),
             cones: Vec::new(),
             tri_cones: Vec::new(),
-            vertex_boxes,
         }
     }
 
@@ -195,35 +183,15 @@ impl ClothMesh {
     /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
     /// cull nothing.
     pub fn refit_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
-        self.fit_vertex_boxes(x0, x1, pad);
-        let min = 4 * parallel::ROWS_MIN;
-        let vb = &self.vertex_boxes;
-        let triangles = &self.triangles;
-        parallel::for_chunks_min(&mut self.tri_boxes, min, |start, boxes| {
-            for (b, t) in boxes.iter_mut().zip(&triangles[start..]) {
-                *b = vb[t[0] as usize]
-                    .union(&vb[t[1] as usize])
-                    .union(&vb[t[2] as usize]);
+        self.boxes.fit(x0, x1, pad, &self.edges);
+        self.boxes.fit_triangles(&self.triangles);
+        let boxes = &self.boxes.triangles;
+        parallel::for_chunks_min(&mut self.tri_boxes, 4 * parallel::ROWS_MIN, |start, out| {
+            for (b, t) in out.iter_mut().zip(&boxes[start..]) {
+                *b = t.to_aabb();
             }
         });
-        fit_edges(vb, &self.edges, &mut self.edge_boxes);
         self.tri_bvh.refit(&self.tri_boxes);
-    }
-
-    /// Each vertex's box over the motion from `x0` to `x1`, grown by `pad`
-    /// on every side (the first part of [`ClothMesh::refit_boxes`]; the
-    /// triangles' and edges' boxes and the hierarchy are left as they
-    /// were, for the next refit to set).
-    pub(super) fn fit_vertex_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
-        parallel::for_chunks_min(
-            &mut self.vertex_boxes,
-            4 * parallel::ROWS_MIN,
-            |start, boxes| {
-                for (k, b) in boxes.iter_mut().enumerate() {
-                    *b = Aabb::of_segment(&x0[start + k], &x1[start + k]).grown(0.5 * pad);
-                }
-            },
-        );
     }
 
     /// Whether node `node`'s patch cannot meet itself over the last
@@ -346,26 +314,26 @@ impl ClothMesh {
         let (os, ot) = (&self.owned[s], &self.owned[t]);
         for (mine, tri) in [(os, t), (ot, s)] {
             let corners = self.triangles[tri];
-            let tri_box = &self.tri_boxes[tri];
+            let tri_box = &self.boxes.triangles[tri];
             extend_kept(
                 &mut out.first,
                 mine.vertices.as_slice().iter().map(|&v| {
                     let keep =
-                        not_one_of(corners, v) & self.vertex_boxes[v as usize].overlaps(tri_box);
+                        not_one_of(corners, v) & self.boxes.vertices[v as usize].overlaps(tri_box);
                     ((v, tri as u32), keep)
                 }),
             );
         }
         for &e in os.edges.as_slice() {
             let [a0, a1] = self.edges[e as usize];
-            let edge_box = &self.edge_boxes[e as usize];
+            let edge_box = &self.boxes.edges[e as usize];
             extend_kept(
                 &mut out.second,
                 ot.edges.as_slice().iter().map(|&f| {
                     let ends = self.edges[f as usize];
                     let keep = not_one_of(ends, a0)
                         & not_one_of(ends, a1)
-                        & edge_box.overlaps(&self.edge_boxes[f as usize]);
+                        & edge_box.overlaps(&self.boxes.edges[f as usize]);
                     ((e.min(f), e.max(f)), keep)
                 }),
             );
@@ -412,7 +380,7 @@ impl ClothMesh {
                         let [a0, a1] = m.edges[e as usize];
                         if not_one_of(corners, a0)
                             && not_one_of(corners, a1)
-                            && m.edge_boxes[e as usize].overlaps(&m.tri_boxes[tri])
+                            && m.boxes.edges[e as usize].overlaps(&m.boxes.triangles[tri])
                             && crossing(m, e, tri)
                         {
                             lists.first.push((e, tri as u32));
