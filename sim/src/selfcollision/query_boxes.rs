@@ -211,7 +211,7 @@ mod tests {
             }
             assert!(fa.union(&fb).overlaps(&fa) && fa.union(&fb).overlaps(&fb));
         }
-        // The touching fifth and more.
+        // The touching quarter, and more.
         assert!(overlapping > 5_000, "{overlapping}");
         assert!(!Box32::EMPTY.overlaps(&Box32::EMPTY));
     }

@@ -130,6 +130,10 @@ impl ClothMesh {
             part.partition_point(|&t| key(t) < cut)
         });
         let contours = Contours::build(&tri_bvh, &triangles, &edges);
+        // The boxes at rest until the first refit.
+        let mut boxes = QueryBoxes::default();
+        boxes.fit(x, x, 0.0, &edges);
+        boxes.fit_triangles(&triangles);
         let spacing = edges
             .iter()
             .map(|e| (x[e[0] as usize] - x[e[1] as usize]).norm())
@@ -150,7 +154,7 @@ impl ClothMesh {
             edges,
             owned,
             tri_boxes,
-            boxes: QueryBoxes::default(),
+            boxes,
             cones: Vec::new(),
             tri_cones: Vec::new(),
         }
