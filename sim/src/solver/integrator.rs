@@ -26,7 +26,7 @@ use super::precond::{BlockJacobi, Jacobi, Preconditioner};
 use super::scheme::Scheme;
 use super::state::ClothState;
 use crate::cloth::{ForceModel, Grid};
-use crate::math::{Real, Vec3, is_finite};
+use crate::math::{Mat3, Real, Vec3, is_finite};
 use crate::spec::{PreconditionerKind, SolverScene, StoppingRule};
 
 /// The share of a step's own local time error the linear solver may add
@@ -98,6 +98,10 @@ pub struct Integrator {
     /// and their product with the last solve's `dv`.
     remote: Vec<coupling::Remote>,
     remote_dv: Vec<Vec3>,
+    /// The preconditioner's boost of those couplings' diagonal blocks
+    /// (`coupling::Boost`), and the blocks it replaced while it is built.
+    boost: Vec<coupling::Boost>,
+    unboosted: Vec<Mat3>,
 }
 
 impl Integrator {
@@ -143,6 +147,8 @@ impl Integrator {
             zero: vec![Vec3::zeros(); n],
             remote: Vec::new(),
             remote_dv: vec![Vec3::zeros(); n],
+            boost: Vec::new(),
+            unboosted: Vec::new(),
         }
     }
 
@@ -230,6 +236,7 @@ impl Integrator {
         };
         let system = &mut self.system;
         self.remote.clear();
+        self.boost.clear();
         coupling::add(
             couplings,
             x,
@@ -237,7 +244,7 @@ impl Integrator {
             scheme.h_eff(),
             &mut system.a,
             &mut system.b,
-            &mut self.remote,
+            (&mut self.remote, &mut self.boost),
         );
     }
 
@@ -297,7 +304,7 @@ impl Integrator {
         let problem = problem(&self.system, &self.remote, constraints);
         let start = mpcg::start(&problem, dv, &mut self.ws);
         if start > self.options.threshold(&problem) {
-            self.precond.update(&self.system.a, &constraints.filter);
+            self.update_preconditioner(&constraints.filter);
         }
     }
 
@@ -318,6 +325,15 @@ impl Integrator {
 }
 
 impl Integrator {
+    /// The preconditioner rebuilt from `A` with the couplings' boost
+    /// (`coupling::Boost`) under `filter`.
+    fn update_preconditioner(&mut self, filter: &[Filter]) {
+        let precond = &mut self.precond;
+        coupling::boosted(&mut self.system.a, &self.boost, &mut self.unboosted, |a| {
+            precond.update(a, filter);
+        });
+    }
+
     /// Stage 3b (BDF2): one Newton correction. The solve found `dv` for
     /// the system linearised about the prediction; `end` is where it took
     /// the cloth (`x1 = x0 + p + h' v1 + y`, `v1 = v0 + dv`). Linearising
@@ -368,6 +384,7 @@ impl Integrator {
         );
         let system = &mut self.system;
         self.remote.clear();
+        self.boost.clear();
         coupling::add(
             &constraints.couplings,
             &end.x,
@@ -375,7 +392,7 @@ impl Integrator {
             scheme.h_eff(),
             &mut system.a,
             &mut system.b,
-            &mut self.remote,
+            (&mut self.remote, &mut self.boost),
         );
         problem(&self.system, &self.remote, constraints).apply(dv, &mut self.product);
         let gamma = scheme.gamma;
@@ -389,7 +406,7 @@ impl Integrator {
         // NOTE: the first solve's preconditioner, lagged (valid, since MPCG
         // filters its output), doubled the correction's iterations on
         // hanging-corners; rebuilt, the correction costs less.
-        self.precond.update(&self.system.a, &constraints.filter);
+        self.update_preconditioner(&constraints.filter);
         self.options.error_bound = self.error_scale.map(|e| e * CORRECTION_SHARE);
         mpcg::start(
             &problem(&self.system, &self.remote, constraints),
