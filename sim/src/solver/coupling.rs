@@ -352,6 +352,24 @@ mod tests {
         }
     }
 
+    /// `couplings` added to `a` with the cloth at rest at the origin and
+    /// `h' = 0.01`: the remote blocks and the boost.
+    fn added_at_rest(couplings: &[Coupling], a: &mut BlockCsr) -> (Vec<Remote>, Vec<Boost>) {
+        let zeros = vec![Vec3::zeros(); a.rows()];
+        let mut b = zeros.clone();
+        let (mut remote, mut boost) = (Vec::new(), Vec::new());
+        add(
+            couplings,
+            &zeros,
+            &zeros,
+            0.01,
+            a,
+            &mut b,
+            (&mut remote, &mut boost),
+        );
+        (remote, boost)
+    }
+
     /// Four particles of equal mass coupled across the grid (no block
     /// between them in `A`'s pattern), for several weights: the boosted
     /// diagonal blocks hold the coupling's stiffness along the pair's
@@ -381,18 +399,7 @@ mod tests {
                 target: 0.002,
                 stiffness: 16.0 * m / (0.01 * 0.01),
             };
-            let (mut remote, mut boost) = (Vec::new(), Vec::new());
-            let mut b = vec![Vec3::zeros(); 4];
-            let zeros = [Vec3::zeros(); 4];
-            add(
-                &[c],
-                &zeros,
-                &zeros,
-                0.01,
-                &mut a,
-                &mut b,
-                (&mut remote, &mut boost),
-            );
+            let (remote, boost) = added_at_rest(&[c], &mut a);
             assert_eq!(boost.len(), live);
             let g: Vec<Vec3> = (0..4).map(|k| n * weights[k]).collect();
             let mut ag = vec![Vec3::zeros(); 4];
@@ -448,18 +455,7 @@ mod tests {
             coupling([4, 5, 6, 7]),
             coupling([8, 3, 2, 1]),
         ];
-        let (mut remote, mut boost) = (Vec::new(), Vec::new());
-        let mut b = vec![Vec3::zeros(); 9];
-        let zeros = [Vec3::zeros(); 9];
-        add(
-            &couplings,
-            &zeros,
-            &zeros,
-            0.01,
-            &mut a,
-            &mut b,
-            (&mut remote, &mut boost),
-        );
+        let (_, boost) = added_at_rest(&couplings, &mut a);
         let boosted: Vec<u32> = boost.iter().map(|b| b.particle).collect();
         assert_eq!(boosted, [4, 5, 6, 7]);
         assert!(
