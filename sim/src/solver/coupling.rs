@@ -78,9 +78,9 @@ pub struct Remote {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Boost {
     /// The block's slot in `A`.
-    pub slot: usize,
+    slot: usize,
     /// The addition.
-    pub block: Mat3,
+    block: Mat3,
     /// The block's particle and coupling, and whether another boosted
     /// coupling holds the particle too.
     particle: u32,
