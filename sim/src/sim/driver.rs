@@ -47,6 +47,8 @@ pub struct FrameAccumulator {
     pub unconverged: usize,
     /// Fixed steps redone as two halves.
     pub subdivided: usize,
+    /// Of those, BDF2 steps that gained energy (`super::energy`).
+    pub energy_subdivided: usize,
     /// Adaptive steps rejected and redone at half size.
     pub rejected: usize,
     /// The steps' local error estimates summed, metres.
@@ -99,6 +101,19 @@ impl Driver<'_> {
         result
     }
 
+    /// Whether the step just taken from the state saved at `slot` gained
+    /// energy, for a BDF2 cloth without obstacles (`super::energy`; its
+    /// restarts by backward Euler too, which gain energy from the states
+    /// BDF2 leaves where Euler alone would not have gone).
+    fn gained_energy(&mut self, slot: usize) -> bool {
+        self.world.scene.solver.integrator == IntegratorKind::Bdf2
+            && self.world.obstacles.is_none()
+            && self
+                .ws
+                .energy
+                .gained(self.world, &self.ws.rollback[slot].state, &self.run.state)
+    }
+
     /// Steps over one frame interval (the caller lands the time exactly
     /// on the frame).
     pub fn advance_frame(&mut self, control: &Control<'_>) -> Result<FrameAccumulator, SimError> {
@@ -121,9 +136,11 @@ impl Driver<'_> {
 
     /// A fixed step of `h`, redone as two half steps (recursively, up to
     /// [`SUBDIVIDE_MAX_DEPTH`]) when it stretches an edge past
-    /// [`SUBDIVIDE_STRETCH`] in one jump: a long step through a fast swing
-    /// (a free edge whipping round) is where one implicit step overshoots,
-    /// and the halves resolve it. Ordinary steps pay one O(springs) check.
+    /// [`SUBDIVIDE_STRETCH`] in one jump, or when a BDF2 step of a cloth
+    /// without obstacles gains energy (`super::energy`): a long step
+    /// through a fast swing (a free edge whipping round) is where one
+    /// implicit step overshoots, and the halves resolve it. Ordinary steps
+    /// pay one O(springs) check, and BDF2's one energy evaluation.
     fn guarded_step(
         &mut self,
         h: Real,
@@ -133,14 +150,18 @@ impl Driver<'_> {
         let stretch = &self.world.model.stretch;
         let before = stretch.max_ratio(&self.run.state.x);
         let may_halve = depth < SUBDIVIDE_MAX_DEPTH;
+        let slot = depth as usize;
         if may_halve {
-            self.ws.save(depth as usize, self.run);
+            self.ws.save(slot, self.run);
         }
         let r = self.step(h)?;
         let after = stretch.max_ratio(&self.run.state.x);
-        if may_halve && after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP {
-            self.ws.restore(depth as usize, self.run);
+        let jumped = after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP;
+        let gained = may_halve && !jumped && self.gained_energy(slot);
+        if may_halve && (jumped || gained) {
+            self.ws.restore(slot, self.run);
             acc.subdivided += 1;
+            acc.energy_subdivided += usize::from(gained);
             self.guarded_step(h / 2.0, depth + 1, acc)?;
             self.guarded_step(h / 2.0, depth + 1, acc)
         } else {

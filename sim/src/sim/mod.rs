@@ -13,6 +13,7 @@
 mod apart;
 mod control;
 mod driver;
+mod energy;
 mod error;
 mod pins;
 mod sharp;
@@ -25,6 +26,7 @@ mod workspace;
 mod world;
 
 pub use control::{Control, Progress};
+pub use energy::ALLOWANCE as ENERGY_ALLOWANCE;
 pub use error::SimError;
 pub use pins::Pins;
 pub use sharp::{KEEP, SharpReport};

@@ -144,6 +144,7 @@ impl Simulation {
             cg_iterations_max: 0,
             unconverged_solves: 0,
             subdivided_steps: 0,
+            energy_subdivided_steps: 0,
             rejected_steps: 0,
             local_error: 0.0,
             contacts: self.run.contacts.len(),
@@ -217,6 +218,7 @@ impl Simulation {
             cg_iterations_max: acc.iterations_max,
             unconverged_solves: acc.unconverged,
             subdivided_steps: acc.subdivided,
+            energy_subdivided_steps: acc.energy_subdivided,
             rejected_steps: acc.rejected,
             local_error: acc.error,
             collision_seconds: acc.times.collision(),
@@ -298,6 +300,7 @@ impl Simulation {
             rec.set_obstacle_offsets(o.offsets());
         }
         rec.set_cloth_thickness(self.world.scene.cloth.self_thickness);
+        rec.set_integrator(self.world.scene.solver.integrator);
         rec
     }
 }

@@ -20,8 +20,12 @@ pub struct FrameStats {
     pub cg_iterations_max: usize,
     /// Steps whose solve stopped before the tolerance.
     pub unconverged_solves: usize,
-    /// Fixed steps redone as two halves because they overstretched.
+    /// Fixed steps redone as two halves because they overstretched or
+    /// (BDF2 without obstacles) gained energy.
     pub subdivided_steps: usize,
+    /// Of those, the BDF2 steps that gained energy (`sim::energy`).
+    #[serde(default)]
+    pub energy_subdivided_steps: usize,
     /// Adaptive steps rejected (error estimate over its share, failed
     /// solve, overstretch) and redone at half size.
     #[serde(default)]
@@ -104,8 +108,11 @@ pub struct RunStats {
     pub cg_iterations_max: usize,
     /// Steps whose solve stopped before the tolerance.
     pub unconverged_solves: usize,
-    /// Fixed steps redone as two halves because they overstretched.
+    /// Fixed steps redone as two halves because they overstretched or
+    /// (BDF2 without obstacles) gained energy.
     pub subdivided_steps: usize,
+    /// Of those, the BDF2 steps that gained energy (`sim::energy`).
+    pub energy_subdivided_steps: usize,
     /// Adaptive steps rejected and redone at half size.
     pub rejected_steps: usize,
     /// The largest of the frames' estimated added position errors
@@ -130,6 +137,9 @@ pub struct RunStats {
     /// The thickness cloth layers keep (`cloth.thickness` or its default),
     /// metres; `None` with self-collision off.
     pub cloth_thickness: Option<f64>,
+    /// The time integrator that ran (`solver.integrator`, `"auto"`
+    /// resolved): `"euler"` or `"bdf2"`.
+    pub integrator: &'static str,
     /// Cloth–cloth proximity impulses over the run.
     pub self_contacts: usize,
     /// Cloth–cloth collisions answered by impulses over the run.
@@ -182,6 +192,7 @@ impl StatsRecorder {
                 cg_iterations_max: 0,
                 unconverged_solves: 0,
                 subdivided_steps: 0,
+                energy_subdivided_steps: 0,
                 rejected_steps: 0,
                 local_error_max: 0.0,
                 collision_seconds: 0.0,
@@ -193,6 +204,7 @@ impl StatsRecorder {
                 redone_solves: 0,
                 obstacle_offsets: Vec::new(),
                 cloth_thickness: None,
+                integrator: "euler",
                 self_contacts: 0,
                 self_collisions: 0,
                 impact_zones: 0,
@@ -221,6 +233,7 @@ impl StatsRecorder {
         s.cg_iterations_max = s.cg_iterations_max.max(f.cg_iterations_max);
         s.unconverged_solves += f.unconverged_solves;
         s.subdivided_steps += f.subdivided_steps;
+        s.energy_subdivided_steps += f.energy_subdivided_steps;
         s.rejected_steps += f.rejected_steps;
         s.local_error_max = s.local_error_max.max(f.local_error);
         s.collision_seconds += f.collision_seconds;
@@ -255,6 +268,11 @@ impl StatsRecorder {
     /// Records the thickness cloth layers keep.
     pub fn set_cloth_thickness(&mut self, thickness: Option<f64>) {
         self.stats.cloth_thickness = thickness;
+    }
+
+    /// Records the time integrator that runs.
+    pub fn set_integrator(&mut self, integrator: crate::spec::IntegratorKind) {
+        self.stats.integrator = integrator.name();
     }
 
     /// Marks the run as having produced non-finite numbers.

@@ -2,6 +2,7 @@
 //! the next step overwrites, kept only so that nothing allocates per step.
 
 use super::apart::ApartScratch;
+use super::energy::EnergyGuard;
 use super::sharp::SharpStage;
 use super::state::RunState;
 use super::world::World;
@@ -24,6 +25,8 @@ pub struct Workspace {
     /// States saved before steps that may be rejected, one per nesting
     /// depth of subdivision.
     pub rollback: Vec<RunState>,
+    /// BDF2's energy guard (`super::energy`).
+    pub energy: EnergyGuard,
     /// Each particle's displacement in the step being taken.
     pub moved: Vec<crate::math::Vec3>,
     /// The cloth's self-collision (`None` when the scene turns it off).
@@ -58,6 +61,7 @@ impl Workspace {
             ),
             step_start: state.state.clone(),
             rollback: Vec::new(),
+            energy: EnergyGuard::default(),
             moved: vec![crate::math::Vec3::zeros(); n],
             self_collision: world
                 .scene

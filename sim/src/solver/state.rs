@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::math::{Real, Vec3};
 
 /// The cloth's state: serialisable so a run can checkpoint and resume.
-#[derive(Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ClothState {
     /// Simulated time, seconds.
     pub time: Real,
