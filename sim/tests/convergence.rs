@@ -7,7 +7,6 @@ mod common;
 use drapery_sim::math::Vec3;
 use drapery_sim::sim::Simulation;
 use drapery_sim::solver::ClothState;
-use drapery_sim::spec::IntegratorChoice;
 
 /// The catenary of a 1 m chain hung between points 0.6 m apart:
 /// `2a sinh(0.3/a) = 1` gives `a = 0.163227…` and sag
@@ -16,8 +15,6 @@ const CATENARY_SAG: f64 = 0.36278;
 
 /// Settles a strip of `n` particles (2 rows, 2 cm wide, stiff stretch, no
 /// bending) started in a V between pins 0.6 m apart; returns its sag.
-/// Backward Euler: its damping brings the swing to rest within the run
-/// (BDF2 keeps it swinging; the shape at rest is the same).
 fn catenary_sag(n: usize) -> f64 {
     let scene = common::scene_from_json(&format!(
         r#"{{"cloth": {{"grid": [{n}, 2], "size": [1.0, 0.02],
@@ -25,8 +22,7 @@ fn catenary_sag(n: usize) -> f64 {
             "material": {{"density": 0.15, "stretch": 1e6, "shear": 1.0, "bend": 0.0,
                           "damping": 0.005, "air_drag": 1.0}},
             "duration": 4.0, "fps": 10,
-            "solver": {{"dt": 0.004166666666666667, "tolerance": 1e-9, "max_iterations": 5000,
-                        "integrator": "euler"}}}}"#,
+            "solver": {{"dt": 0.004166666666666667, "tolerance": 1e-9, "max_iterations": 5000}}}}"#,
         last = n - 1
     ));
     let mut sim = Simulation::new(&scene).expect("builds");
@@ -84,10 +80,6 @@ fn hanging_corners_lowest_point_converges_under_refinement() {
             spec.cloth.pinned = vec![[0, 0].into(), [n - 1, 0].into()];
             spec.duration = 1.0;
             spec.fps = 10.0;
-            // Space, not time: backward Euler's damping settles the swing
-            // after the whip; under BDF2 the grids reach 1 s at different
-            // points of it (docs/benchmarks.md, section 1o).
-            spec.solver.integrator = IntegratorChoice::Euler;
             let scene = spec.validate(&Default::default()).expect("valid");
             let mut sim = Simulation::new(&scene).expect("builds");
             let frames = common::run_frames(&mut sim);

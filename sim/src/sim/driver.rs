@@ -102,12 +102,13 @@ impl Driver<'_> {
     }
 
     /// Whether the step just taken from the state saved at `slot` gained
-    /// energy, for a BDF2 cloth without obstacles (`super::energy`; its
-    /// restarts by backward Euler too, which gain energy from the states
-    /// BDF2 leaves where Euler alone would not have gone).
+    /// energy, for a BDF2 cloth without obstacles or moving pins
+    /// (`super::energy`; its restarts by backward Euler too, which gain
+    /// energy from the states BDF2 leaves where Euler alone would not go).
     fn gained_energy(&mut self, slot: usize) -> bool {
         self.world.scene.solver.integrator == IntegratorKind::Bdf2
             && self.world.obstacles.is_none()
+            && !self.world.pins.moving()
             && self
                 .ws
                 .energy
@@ -137,7 +138,7 @@ impl Driver<'_> {
     /// A fixed step of `h`, redone as two half steps (recursively, up to
     /// [`SUBDIVIDE_MAX_DEPTH`]) when it stretches an edge past
     /// [`SUBDIVIDE_STRETCH`] in one jump, or when a BDF2 step of a cloth
-    /// without obstacles gains energy (`super::energy`): a long step
+    /// without obstacles or moving pins gains energy (`super::energy`): a long step
     /// through a fast swing (a free edge whipping round) is where one
     /// implicit step overshoots, and the halves resolve it. Ordinary steps
     /// pay one O(springs) check, and BDF2's one energy evaluation.

@@ -15,17 +15,18 @@
 //! guard watches BDF2's Euler restarts as well.
 //!
 //! What counts as a gain. The energy is `E = 1/2 Σ m v² + U(x) − Σ m g·x`
-//! (`U` the stretch, shear and bend energies). Moving pins do work on the
-//! cloth; the guard compares the step's end against its start with every
-//! pinned particle already where and how fast the pins hold it at the end
-//! (the pins' work credited up front), which is exactly the state a
-//! backward Euler step of the pinned cloth starts from. Drag and the
-//! material's damping only take energy out. Obstacles can put energy in
-//! (a moving obstacle, a position correction out of an offset surface), so
-//! the guard is for the steps of a cloth without obstacles. Layers of the
-//! cloth pushed apart by self-collision's couplings gain energy the guard
-//! does not count (the couplings' springs are not part of `U`); such a
-//! step may be halved when it need not be, at most down to a sixteenth.
+//! (`U` the stretch, shear and bend energies). Drag and the material's
+//! damping only take energy out, and pins held still do no work, so any
+//! gain is the step's own. Obstacles can put energy in (a moving obstacle,
+//! a position correction out of an offset surface), and so can moving
+//! pins; their work over a step is not known to the precision the test
+//! needs (crediting it as if the pins jumped to their end first let a
+//! cloth shaken by its pins halve 578 steps and stretch 163 %,
+//! docs/benchmarks.md 1w), so the guard is for a cloth without obstacles
+//! whose pins, if any, hold still. Layers of the cloth pushed apart by
+//! self-collision's couplings gain energy the guard does not count (the
+//! couplings' springs are not part of `U`); such a step may be halved
+//! when it need not be, at most down to a sixteenth.
 //!
 //! A step is redone when it gains more than [`ALLOWANCE`] of the cloth's
 //! kinetic plus elastic energy at its start: BDF2's own energy wobbles by
@@ -40,31 +41,21 @@ use crate::solver::ClothState;
 /// may gain before it is redone as two halves.
 pub const ALLOWANCE: Real = 1e-3;
 
-/// The guard's buffers, reused across steps: the start with the pins
-/// moved, and the last state measured with its energy (a step's end is
-/// the next step's start: measured once, not twice).
+/// The guard's memory: the last state measured and its energy (a step's
+/// end is the next step's start: measured once, not twice).
 #[derive(Debug, Clone, Default)]
 pub struct EnergyGuard {
-    start: ClothState,
     last: ClothState,
     last_energy: Option<(Real, Real)>,
 }
 
 impl EnergyGuard {
     /// Whether the step from `start` to `end` gained more energy than
-    /// [`ALLOWANCE`] allows, with the pinned particles of `start` moved to
-    /// their place and speed at `end` first.
+    /// [`ALLOWANCE`] allows.
     pub fn gained(&mut self, world: &World, start: &ClothState, end: &ClothState) -> bool {
-        self.start.clone_from(start);
-        for (k, &held) in world.pins.mask().iter().enumerate() {
-            if held {
-                self.start.x[k] = end.x[k];
-                self.start.v[k] = end.v[k];
-            }
-        }
         let (e0, scale) = match self.last_energy {
-            Some(e) if self.last.x == self.start.x && self.last.v == self.start.v => e,
-            _ => energy(world, &self.start.x, &self.start.v),
+            Some(e) if self.last.x == start.x && self.last.v == start.v => e,
+            _ => energy(world, &start.x, &start.v),
         };
         let e1 = energy(world, &end.x, &end.v);
         self.last.clone_from(end);
@@ -108,21 +99,15 @@ mod tests {
         }
     }
 
-    /// A pin that moves and drags its springs long does work the guard
-    /// credits; a free particle sped up from nothing is a gain; and a
-    /// gain within the allowance passes.
+    /// A free particle sped up from rest is a gain; a small kick to a
+    /// cloth already moving is within the allowance; a state measured as
+    /// a step's end serves as the next step's start.
     #[test]
-    fn pins_work_is_credited_and_free_gains_are_caught() {
+    fn gains_beyond_the_allowance_are_caught() {
         let world = world();
         let start = rest(&world);
         let mut guard = EnergyGuard::default();
         assert!(!guard.gained(&world, &start, &start));
-        // The pin pulled 1 cm away at 1 m/s: its springs store energy
-        // and it moves, all the pin's work.
-        let mut pulled = start.clone();
-        pulled.x[0].x -= 0.01;
-        pulled.v[0].x = -1.0;
-        assert!(!guard.gained(&world, &start, &pulled));
         // A free particle given speed: a gain of its kinetic energy over
         // a start with none.
         let mut kicked = start.clone();
@@ -130,18 +115,20 @@ mod tests {
         assert!(guard.gained(&world, &start, &kicked));
         // A kick adding a few millionths of the energy of a cloth already
         // moving: below the allowance.
-        let mut moving = pulled.clone();
+        let mut moving = start.clone();
         for v in &mut moving.v[1..] {
             v.z = 10.0 / (world.grid.len() as Real - 1.0).sqrt();
         }
         let mut kicked = moving.clone();
         kicked.v[12].z += 1e-4;
         assert!(!guard.gained(&world, &moving, &kicked));
-        // Cached: the end measured last is the start of the next check.
-        assert!(guard.gained(&world, &kicked, &{
-            let mut more = kicked.clone();
-            more.v[12].z += 1.0;
-            more
-        }));
+        // The end measured last is the start of the next check, and slowing
+        // down is no gain.
+        let mut slower = kicked.clone();
+        slower.v[12].z = 0.0;
+        assert!(!guard.gained(&world, &kicked, &slower));
+        let mut faster = slower.clone();
+        faster.v[12].z = 3.0;
+        assert!(guard.gained(&world, &slower, &faster));
     }
 }

@@ -51,6 +51,11 @@ impl Pins {
         self.indices.is_empty()
     }
 
+    /// `true` when some pin group moves (does work on the cloth).
+    pub fn moving(&self) -> bool {
+        !self.motions.is_empty()
+    }
+
     /// `true` at each pinned particle's index.
     pub fn mask(&self) -> &[bool] {
         &self.mask

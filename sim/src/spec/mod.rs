@@ -21,6 +21,6 @@ pub use material::{MaterialParams, MaterialSpec, PRESETS, preset};
 pub use obstacle::{BoxShape, Cylinder, Keyframe, MeshSource, Motion, Obstacle, Plane, Sphere};
 pub use scene::{ClothScene, Scene, SolverScene, TimeStepping};
 pub use types::{
-    ClothSpec, IntegratorChoice, IntegratorKind, JacobianMode, Pin, PinEntry, PinGroup,
-    PreconditionerKind, SolverSpec, Spec, StoppingRule, TimeStep,
+    ClothSpec, IntegratorKind, JacobianMode, Pin, PinEntry, PinGroup, PreconditionerKind,
+    SolverSpec, Spec, StoppingRule, TimeStep,
 };

@@ -190,11 +190,9 @@ pub struct SolverSpec {
     /// Which preconditioner the PCG uses.
     #[serde(default)]
     pub preconditioner: PreconditionerKind,
-    /// The time integrator: `"auto"` (default: `"bdf2"` for a cloth with
-    /// no obstacle, `"euler"` with obstacles), `"euler"` (backward Euler)
-    /// or `"bdf2"`.
+    /// The time integrator: `"euler"` (backward Euler) or `"bdf2"`.
     #[serde(default)]
-    pub integrator: IntegratorChoice,
+    pub integrator: IntegratorKind,
     /// With `dt: "adaptive"`: the position error one frame may add,
     /// metres (RMS over the cloth's free particles; default 1 mm). Each
     /// step's embedded estimate must stay within its share of it.
@@ -216,7 +214,7 @@ impl Default for SolverSpec {
             stopping: StoppingRule::default(),
             max_iterations: default_max_iterations(),
             preconditioner: PreconditionerKind::default(),
-            integrator: IntegratorChoice::default(),
+            integrator: IntegratorKind::default(),
             error: None,
             warm_start: true,
             collision: true,
@@ -291,10 +289,13 @@ impl std::str::FromStr for PreconditionerKind {
 
 /// Time integrators (method.md §2, §6).
 #[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum IntegratorKind {
-    /// Backward (implicit) Euler: first order, damps slow motion.
+    /// Backward (implicit) Euler: first order, damps slow motion; the
+    /// default while BDF2 still overstretches in two stress cases
+    /// (docs/benchmarks.md).
+    #[default]
     Euler,
     /// The two-step backward differentiation formula (Choi & Ko 2002):
     /// second order, the same system to solve.
@@ -310,48 +311,6 @@ impl IntegratorKind {
         match self {
             IntegratorKind::Euler => "euler",
             IntegratorKind::Bdf2 => "bdf2",
-        }
-    }
-}
-
-/// The integrator a spec asks for: one of them, or the one that wins on
-/// the work–precision front for the scene (docs/benchmarks.md, sections
-/// 1o and 1w). On a cloth that only swings, BDF2 at a frame-sized step is
-/// as accurate as backward Euler at a sixteenth of it (hanging-corners at
-/// 1/120 s: 2.2 % against 17 % of the diagonal); where the cloth lies on
-/// obstacles, contact and friction switching set the error, and BDF2 at a
-/// step buys what Euler at half the step buys, for about its cost, so the
-/// cheaper Euler is the better point at the scene's own step.
-#[cfg_attr(feature = "schema", derive(utoipa::ToSchema))]
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum IntegratorChoice {
-    /// BDF2 for a cloth with no obstacle, backward Euler with obstacles.
-    #[default]
-    Auto,
-    /// Backward Euler.
-    Euler,
-    /// BDF2.
-    Bdf2,
-}
-
-impl IntegratorChoice {
-    /// The integrator run for a scene with (`true`) or without obstacles.
-    pub fn resolve(self, obstacles: bool) -> IntegratorKind {
-        match self {
-            IntegratorChoice::Auto if obstacles => IntegratorKind::Euler,
-            IntegratorChoice::Auto => IntegratorKind::Bdf2,
-            IntegratorChoice::Euler => IntegratorKind::Euler,
-            IntegratorChoice::Bdf2 => IntegratorKind::Bdf2,
-        }
-    }
-}
-
-impl From<IntegratorKind> for IntegratorChoice {
-    fn from(kind: IntegratorKind) -> Self {
-        match kind {
-            IntegratorKind::Euler => IntegratorChoice::Euler,
-            IntegratorKind::Bdf2 => IntegratorChoice::Bdf2,
         }
     }
 }

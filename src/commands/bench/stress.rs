@@ -21,7 +21,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
         .collect();
     if let Some(integrator) = args.integrator {
         for case in &mut cases {
-            case.spec.solver.integrator = integrator.into();
+            case.spec.solver.integrator = integrator;
         }
     }
     anyhow::ensure!(!cases.is_empty(), "--only: no case matches");

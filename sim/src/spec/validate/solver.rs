@@ -92,7 +92,7 @@ pub(super) fn validate_solver(
         stopping: s.stopping,
         max_iterations: s.max_iterations as usize,
         preconditioner: s.preconditioner,
-        integrator: s.integrator.resolve(!spec.obstacles.is_empty()),
+        integrator: s.integrator,
         warm_start: s.warm_start,
         collision: s.collision,
     })

@@ -184,11 +184,7 @@ impl<'a> Study<'a> {
     /// apart if the sweep has no such run).
     fn time_steps(&self, reference: &Reference) -> anyhow::Result<(Vec<Row>, Vec<Vec<Vec3>>)> {
         let tight = self.args.tight_tolerance;
-        let own = self
-            .base
-            .solver
-            .integrator
-            .resolve(!self.base.obstacles.is_empty());
+        let own = self.base.solver.integrator;
         let fixed = runner::scene(
             &with(&self.base, own, self.fixed_dt(), tight),
             "tolerance sweep",
@@ -235,11 +231,7 @@ impl<'a> Study<'a> {
         reference: &Reference,
         baseline: &[Vec<Vec3>],
     ) -> anyhow::Result<Vec<Row>> {
-        let own = self
-            .base
-            .solver
-            .integrator
-            .resolve(!self.base.obstacles.is_empty());
+        let own = self.base.solver.integrator;
         let by_residual = self
             .args
             .tolerances

@@ -14,7 +14,7 @@ pub fn with(base: &Spec, integrator: IntegratorKind, dt: f64, tolerance: f64) ->
     let mut s = base.clone();
     s.solver.dt = TimeStep::Fixed(dt);
     s.solver.error = None;
-    s.solver.integrator = integrator.into();
+    s.solver.integrator = integrator;
     s.solver.tolerance = tolerance;
     s.solver.stopping = StoppingRule::Residual;
     s
