@@ -138,10 +138,11 @@ impl Driver<'_> {
     /// A fixed step of `h`, redone as two half steps (recursively, up to
     /// [`SUBDIVIDE_MAX_DEPTH`]) when it stretches an edge past
     /// [`SUBDIVIDE_STRETCH`] in one jump, or when a BDF2 step of a cloth
-    /// without obstacles or moving pins gains energy (`super::energy`): a long step
-    /// through a fast swing (a free edge whipping round) is where one
-    /// implicit step overshoots, and the halves resolve it. Ordinary steps
-    /// pay one O(springs) check, and BDF2's one energy evaluation.
+    /// without obstacles or moving pins gains energy (`super::energy`): a
+    /// long step through a fast swing (a free edge whipping round) is
+    /// where one implicit step overshoots, and the halves resolve it.
+    /// Ordinary steps pay one O(springs) check, and BDF2's one energy
+    /// evaluation.
     fn guarded_step(
         &mut self,
         h: Real,
