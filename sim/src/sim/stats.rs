@@ -21,7 +21,7 @@ pub struct FrameStats {
     /// Steps whose solve stopped before the tolerance.
     pub unconverged_solves: usize,
     /// Fixed steps redone as two halves because they overstretched or
-    /// (BDF2 without obstacles) gained energy.
+    /// (BDF2 without obstacles or moving pins) gained energy.
     pub subdivided_steps: usize,
     /// Of those, the BDF2 steps that gained energy (`sim::energy`).
     #[serde(default)]
@@ -109,7 +109,7 @@ pub struct RunStats {
     /// Steps whose solve stopped before the tolerance.
     pub unconverged_solves: usize,
     /// Fixed steps redone as two halves because they overstretched or
-    /// (BDF2 without obstacles) gained energy.
+    /// (BDF2 without obstacles or moving pins) gained energy.
     pub subdivided_steps: usize,
     /// Of those, the BDF2 steps that gained energy (`sim::energy`).
     pub energy_subdivided_steps: usize,
@@ -137,8 +137,8 @@ pub struct RunStats {
     /// The thickness cloth layers keep (`cloth.thickness` or its default),
     /// metres; `None` with self-collision off.
     pub cloth_thickness: Option<f64>,
-    /// The time integrator that ran (`solver.integrator`, `"auto"`
-    /// resolved): `"euler"` or `"bdf2"`.
+    /// The time integrator that ran (`solver.integrator`): `"euler"` or
+    /// `"bdf2"`.
     pub integrator: &'static str,
     /// Cloth–cloth proximity impulses over the run.
     pub self_contacts: usize,

@@ -167,14 +167,8 @@ pub(super) fn add(
         }
     }
     mark_shared(&mut boost[first..]);
-    let mut kept = first;
-    for k in first..boost.len() {
-        if !boost[k].shared {
-            boost[kept] = boost[k];
-            kept += 1;
-        }
-    }
-    boost.truncate(kept);
+    // Entries before `first` were kept by an earlier call: none is shared.
+    boost.retain(|b| !b.shared);
 }
 
 /// Marks as shared every entry of a coupling one of whose particles
