@@ -93,7 +93,7 @@ impl Oscillator {
                 Scheme::euler(h)
             };
             integrator.assemble(&physics, &state, &c, &scheme);
-            integrator.precondition(&physics, &c, &scheme, 0.0, &mut dv);
+            integrator.precondition(&physics, &c, &scheme, 0.0, &state.v, &mut dv);
             let solve = integrator.solve(&c, &mut dv);
             update(&mut state, &dv, &c, &scheme, &mut moved).expect("finite");
             assert_eq!(solve.status, SolveStatus::Converged);
@@ -320,7 +320,7 @@ fn stiff_pendulum_converges_at_second_order_with_bdf2() {
             c.clear();
             c.fix(0, Vec3::zeros(), Vec3::zeros());
             integrator.assemble(&physics, &state, &c, &scheme);
-            integrator.precondition(&physics, &c, &scheme, 0.0, &mut dv);
+            integrator.precondition(&physics, &c, &scheme, 0.0, &state.v, &mut dv);
             integrator.solve(&c, &mut dv);
             update(&mut state, &dv, &c, &scheme, &mut moved).expect("finite");
             (last_moved, last_dv, last_h) = (moved.clone(), dv.clone(), h);
@@ -401,7 +401,7 @@ fn bdf2_newton_correction_cuts_the_linearisation_residual() {
         c.fix(0, Vec3::zeros(), Vec3::zeros());
         let start = state.clone();
         integrator.assemble(&physics, &state, &c, &scheme);
-        integrator.precondition(&physics, &c, &scheme, 0.0, &mut dv);
+        integrator.precondition(&physics, &c, &scheme, 0.0, &state.v, &mut dv);
         integrator.solve(&c, &mut dv);
         update(&mut state, &dv, &c, &scheme, &mut moved).expect("finite");
         if scheme.is_two_step() {

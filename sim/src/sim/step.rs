@@ -129,6 +129,7 @@ pub fn step(
                 &ws.constraints,
                 &scheme,
                 run.last_error,
+                &run.state.v,
                 &mut run.warm_start,
             )
         });

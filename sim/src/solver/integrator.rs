@@ -19,6 +19,7 @@
 use super::assemble::{AssemblyInput, System};
 use super::constraints::{Constraints, Filter};
 use super::coupling::{self, Coupling};
+use super::error_rule::{CORRECTION_SHARE, PREDICTOR_SHARE, SOLVER_SHARE, error_floor, rms_free};
 use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
 use super::multigrid::Multigrid;
@@ -28,32 +29,6 @@ use super::state::ClothState;
 use crate::cloth::{ForceModel, Grid};
 use crate::math::{Mat3, Real, Vec3, is_finite};
 use crate::spec::{PreconditionerKind, SolverScene, StoppingRule};
-
-/// The share of a step's own local time error the linear solver may add
-/// under [`StoppingRule::Error`]: a tenth, so the solver's error stays
-/// invisible next to the integrator's (docs/benchmarks.md, section 1:
-/// tolerances past that point buy nothing).
-pub const SOLVER_SHARE: Real = 0.1;
-
-/// Under [`StoppingRule::Error`], BDF2's first solve only predicts the
-/// point its Newton correction ([`Integrator::correct`]) linearises about:
-/// it may leave ten times the step's local error. Measured on
-/// hanging-corners at 1/120 s: 2,653 CG iterations and 2.06 % error (RMS
-/// of the diagonal over 1.5 s), against 3,458 and 2.16 % with a share of 1.
-pub const PREDICTOR_SHARE: Real = 10.0;
-
-/// Under [`StoppingRule::Error`], the share of the local error BDF2's
-/// corrected solve may leave. Measured on hanging-corners at 1/120 s
-/// (error RMS of the diagonal over 1.5 s against BDF2 at 1/1920 s, CG
-/// iterations; docs/benchmarks.md, sections 1d and 1o): a share of 0.3
-/// gives 2.96 % for 2,341, 0.1 gave 2.59 % for 2,930 (a tight solve:
-/// 2.28 %), but the stress suite's crumpled cloth over a sphere, run
-/// under BDF2, then stretched 11.8 % (0.2: 11.0 %, 0.15: 14.5 %) where
-/// 0.3 keeps it at 8.6 %, inside the suite's 10 %. On the swinging cloth
-/// of `sim/tests/stopping.rs` 0.3 leaves a sixth of BDF2's time error.
-/// (The whip of the free edge makes hanging-corners' error jump by
-/// tenths of a percent with any perturbation.)
-pub const CORRECTION_SHARE: Real = 0.3;
 
 /// A step that produced non-finite numbers.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -258,13 +233,16 @@ impl Integrator {
     /// [`StoppingRule::Error`] the solver's own error in this step's
     /// positions, `h' e`, may be [`SOLVER_SHARE`] of it: the mass-weighted
     /// RMS of `e` at most `κ err / h'`, which `|e|_A ≥ |e|_M` turns into
-    /// the energy-norm bound `κ err / h' · √M_free`.
+    /// the energy-norm bound `κ err / h' · √M_free`. Under backward Euler
+    /// `err` is at least `error_floor` of the step's start velocities
+    /// `v`.
     pub fn precondition(
         &mut self,
         physics: &Physics<'_>,
         constraints: &Constraints,
         scheme: &Scheme<'_>,
         step_error: Real,
+        v: &[Vec3],
         dv: &mut [Vec3],
     ) {
         let h = scheme.h_eff();
@@ -293,7 +271,8 @@ impl Integrator {
                     .map(|(m, _)| m)
                     .sum()
             });
-            step_error / h * free_mass.sqrt()
+            let speed = rms_free(v, &constraints.filter);
+            step_error.max(error_floor(scheme, physics.gravity, speed)) / h * free_mass.sqrt()
         });
         let share = if scheme.is_two_step() {
             PREDICTOR_SHARE

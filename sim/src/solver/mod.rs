@@ -23,6 +23,7 @@ mod assemble;
 mod bsr;
 mod constraints;
 mod coupling;
+mod error_rule;
 mod integrator;
 mod lines;
 mod local_error;
