@@ -54,19 +54,21 @@ pub const CORRECTION_SHARE: Real = 0.3;
 /// twice the cap raised the stress suite's tight twist from 2.63 % to
 /// 3.70 % stretch. BDF2 is exact in free fall and keeps the rule as it
 /// was.
-pub fn error_floor(scheme: &Scheme<'_>, gravity: Vec3, speed: Real) -> Real {
+/// `v` are the velocities at the step's start, `filter` the step's
+/// filters (the free particles are those the local error is taken over).
+pub fn error_floor(scheme: &Scheme<'_>, gravity: Vec3, v: &[Vec3], filter: &[Filter]) -> Real {
     if scheme.is_two_step() {
-        0.0
-    } else {
-        MOTION_SHARE * scheme.h * speed.min(scheme.h * gravity.norm())
+        return 0.0;
     }
+    let speed = rms_free(v, filter);
+    MOTION_SHARE * scheme.h * speed.min(scheme.h * gravity.norm())
 }
 
 /// The share of a step's motion [`error_floor`] takes as its floor.
 const MOTION_SHARE: Real = 0.25;
 
 /// The RMS of `v` over the free particles (0 if none is free).
-pub fn rms_free(v: &[Vec3], filter: &[Filter]) -> Real {
+fn rms_free(v: &[Vec3], filter: &[Filter]) -> Real {
     let free = |f: &Filter| *f == Filter::Free;
     let count = filter.iter().filter(|f| free(f)).count();
     if count == 0 {

@@ -19,7 +19,7 @@
 use super::assemble::{AssemblyInput, System};
 use super::constraints::{Constraints, Filter};
 use super::coupling::{self, Coupling};
-use super::error_rule::{CORRECTION_SHARE, PREDICTOR_SHARE, SOLVER_SHARE, error_floor, rms_free};
+use super::error_rule::{CORRECTION_SHARE, PREDICTOR_SHARE, SOLVER_SHARE, error_floor};
 use super::lines::AlternatingLines;
 use super::mpcg::{self, MpcgOptions, MpcgWorkspace, Problem, SolveReport};
 use super::multigrid::Multigrid;
@@ -271,8 +271,8 @@ impl Integrator {
                     .map(|(m, _)| m)
                     .sum()
             });
-            let speed = rms_free(v, &constraints.filter);
-            step_error.max(error_floor(scheme, physics.gravity, speed)) / h * free_mass.sqrt()
+            let floor = error_floor(scheme, physics.gravity, v, &constraints.filter);
+            step_error.max(floor) / h * free_mass.sqrt()
         });
         let share = if scheme.is_two_step() {
             PREDICTOR_SHARE
