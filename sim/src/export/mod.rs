@@ -3,6 +3,7 @@
 //! Vertices are always in grid order (index `i + j * nu`), the contract
 //! every consumer of drapery's output relies on.
 
+mod decimal;
 mod glb;
 mod obj;
 mod pc2;

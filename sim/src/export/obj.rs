@@ -2,31 +2,43 @@
 
 use std::io::{self, Write};
 
+use super::decimal::{push_fixed9, push_u64};
 use crate::math::Vec3;
 
-/// Decimals of every coordinate: metres to the nanometre. Features of a
-/// tight fold can touch within a tenth of a micrometre (the response keeps
-/// them from crossing, not from touching), and at seven decimals a fold
-/// read back from the frames could cross itself where the simulated cloth
-/// does not (rotating-sphere: two cloth edges through the cloth at the
-/// last frame, 40–70 nm inside, docs/benchmarks.md 1m).
-pub const DECIMALS: usize = 9;
+/// Lines gathered before each write to `out`.
+const LINES_PER_WRITE: usize = 256;
 
-/// Writes `positions` and the (zero-based) `triangles` as OBJ text.
+/// Writes `positions` (each coordinate to [`super::decimal::DECIMALS`]
+/// decimals) and the (zero-based) `triangles` as OBJ text.
 pub fn write_obj<W: Write>(
     out: &mut W,
     positions: &[Vec3],
     triangles: &[[u32; 3]],
 ) -> io::Result<()> {
-    for p in positions {
-        writeln!(
-            out,
-            "v {:.*} {:.*} {:.*}",
-            DECIMALS, p.x, DECIMALS, p.y, DECIMALS, p.z
-        )?;
+    let mut line = Vec::with_capacity(48 * LINES_PER_WRITE);
+    for chunk in positions.chunks(LINES_PER_WRITE) {
+        line.clear();
+        for p in chunk {
+            line.push(b'v');
+            for c in [p.x, p.y, p.z] {
+                line.push(b' ');
+                push_fixed9(&mut line, c);
+            }
+            line.push(b'\n');
+        }
+        out.write_all(&line)?;
     }
-    for t in triangles {
-        writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    for chunk in triangles.chunks(LINES_PER_WRITE) {
+        line.clear();
+        for t in chunk {
+            line.push(b'f');
+            for &k in t {
+                line.push(b' ');
+                push_u64(&mut line, u64::from(k) + 1);
+            }
+            line.push(b'\n');
+        }
+        out.write_all(&line)?;
     }
     Ok(())
 }
