@@ -78,3 +78,62 @@ fn check(scene: &Scene) {
         );
     }
 }
+
+/// A ribbon whose spacing across is a fraction of its spacing along falls
+/// freely too, with the default preconditioner: its bending across the
+/// fine spacing is stiff against the particles' masses, and the line
+/// smoother, had it put the couplings two lines across back on the
+/// diagonal as it does on a square grid, would resist the fall itself
+/// (cotton without air drag, whose pull would slow the fall) —
+/// at 16:1 the first step took over a thousand CG iterations and the
+/// ribbon hardly moved (docs/benchmarks.md 1z). The centre of mass obeys
+/// backward Euler's law to the solver's tolerance, every solve converges
+/// within a few iterations, and the ribbon keeps its shape.
+#[test]
+fn a_narrow_ribbon_falls_freely() {
+    for aspect in [1.0, 4.0, 8.0, 16.0, 48.0] {
+        let scene = common::scene_from_json(&format!(
+            r#"{{"cloth": {{"grid": [20, 20], "size": [1.0, {w}], "origin": [-0.5, 0.0, 1.0]}},
+                "material": {{"density": 0.15, "stretch": 20000.0, "shear": 50.0, "bend": 1e-05,
+                              "damping": 0.002, "air_drag": 0.0}},
+                "gravity": [0, 0, -9.81], "duration": 0.1, "fps": 30,
+                "solver": {{"dt": 0.004166666666666667}}}}"#,
+            w = 1.0 / aspect
+        ));
+        let h = scene.frame_dt() / 8.0;
+        let mut sim = Simulation::new(&scene).expect("builds");
+        let m = sim.grid().mass.clone();
+        let x0 = common::center_of_mass(&sim.state().x, &m);
+        while !sim.is_done() {
+            let stats = sim.advance_frame(&Control::default()).expect("steps");
+            assert_eq!(stats.unconverged_solves, 0, "aspect {aspect}");
+            // A step needs a handful at most: the fall is the last step's
+            // change of velocity again, the warm start, except on the
+            // first, which starts from zero.
+            assert!(
+                stats.cg_iterations <= 4 * stats.steps,
+                "aspect {aspect}: {} CG iterations in {} steps",
+                stats.cg_iterations,
+                stats.steps
+            );
+            let n = (stats.time / h).round();
+            let expected = x0 + scene.gravity * fall(IntegratorKind::Euler, n, h);
+            let com = common::center_of_mass(&sim.state().x, &m);
+            // The error rule leaves at most a few per cent of a step's
+            // motion to the solver (`error_floor`); the fall after `n`
+            // steps is `n (n + 1) / 2` steps' worth, so a micrometre is
+            // far inside what a missed fall would show (the failing
+            // preconditioner left the ribbon 2 cm high at 0.1 s).
+            assert!(
+                (com - expected).norm() < 1e-6,
+                "aspect {aspect} t={}: {com:?} vs {expected:?}",
+                stats.time
+            );
+            assert!(
+                (stats.max_stretch - 1.0).abs() < 1e-6,
+                "aspect {aspect}: stretch {}",
+                stats.max_stretch
+            );
+        }
+    }
+}

@@ -19,7 +19,7 @@ mod model;
 mod shear;
 mod stretch;
 
-pub use angle::{AngleElement, AngleForce, AngleLaw, THRESHOLD_SMOOTHING};
+pub use angle::{AngleElement, AngleForce, AngleLaw, THRESHOLD_SMOOTHING, energy_of_square};
 pub use bend::Bend;
 pub use damping::SpringDamping;
 pub use drag::AirDrag;

@@ -54,7 +54,12 @@ impl Workspace {
             .map(|s| s.k)
             .fold(0.0, crate::math::Real::max);
         Self {
-            integrator: Integrator::new(&world.grid, &world.model, &world.scene.solver),
+            integrator: Integrator::new(
+                &world.grid,
+                &world.model,
+                &world.scene.solver,
+                world.scene.largest_step(),
+            ),
             constraints: Constraints::free(n),
             collision: CollisionScratch::new(
                 world.obstacles.as_ref().map_or(0, |o| o.colliders().len()),

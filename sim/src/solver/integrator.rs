@@ -81,12 +81,13 @@ pub struct Integrator {
 
 impl Integrator {
     /// The system of `model` on `grid`, with the preconditioner and
-    /// stopping rule `settings` ask for.
-    pub fn new(grid: &Grid, model: &ForceModel, settings: &SolverScene) -> Self {
+    /// stopping rule `settings` ask for, for steps up to `h_max` (what
+    /// the line preconditioner weighs, `LeftOut`).
+    pub fn new(grid: &Grid, model: &ForceModel, settings: &SolverScene, h_max: Real) -> Self {
         let mut integrator = Self::from_parts(
             grid.len(),
             model,
-            preconditioner(settings.preconditioner, grid),
+            preconditioner(settings.preconditioner, grid, model, h_max),
             MpcgOptions {
                 tolerance: settings.tolerance,
                 max_iterations: settings.max_iterations,
@@ -452,12 +453,18 @@ pub fn update(
     Ok(())
 }
 
-/// The preconditioner `kind` for `grid`.
-fn preconditioner(kind: PreconditionerKind, grid: &Grid) -> Box<dyn Preconditioner> {
+/// The preconditioner `kind` for a cloth on `grid` with forces `model`,
+/// stepped by at most `h`.
+fn preconditioner(
+    kind: PreconditionerKind,
+    grid: &Grid,
+    model: &ForceModel,
+    h: Real,
+) -> Box<dyn Preconditioner> {
     match kind {
         PreconditionerKind::Jacobi => Box::<Jacobi>::default(),
         PreconditionerKind::BlockJacobi => Box::<BlockJacobi>::default(),
-        PreconditionerKind::Lines => Box::new(AlternatingLines::new(grid.nu, grid.nv)),
+        PreconditionerKind::Lines => Box::new(AlternatingLines::for_cloth(grid, &model.bend, h)),
         PreconditionerKind::Multigrid => Box::new(Multigrid::new(grid.nu, grid.nv)),
     }
 }

@@ -22,26 +22,19 @@
 
 use super::bsr::BlockCsr;
 use super::constraints::{Filter, filter_and_dot};
+use super::left_out::LeftOut;
 use super::multigrid::{Direction, GridMatrix, LineFamily, LineScratch, Vec3f, symmetric_sweep};
 use super::precond::Preconditioner;
+use crate::cloth::{AngleForce, Bend, Grid};
 use crate::math::{Real, Vec3};
-
-/// Lines across that a sweep couples a line to (`LineFamily::new`): one,
-/// so the lines of a family fall in two colours, and the bending
-/// couplings two lines across are made up for on the diagonal. Two
-/// colours halve a 30² cloth's lines between two cores (four packs a
-/// colour, where three colours left three) and save a third of each
-/// node's gathers, for a little more CG. Measured against `reach` 2
-/// (docs/benchmarks.md 1p): sphere-drape-30 4,558 → 4,763 CG iterations
-/// and its solve stage 0.37–0.46 → 0.31–0.35 s on two threads;
-/// sphere-drape-100 13,714 → 13,738 iterations, solve 11.1 → 9.6 s.
-const REACH: usize = 1;
 
 /// The alternating-line preconditioner for an `nu x nv` grid.
 #[derive(Debug, Clone)]
 pub struct AlternatingLines {
     nu: usize,
     nv: usize,
+    /// How the warp and the weft treat the couplings they leave out.
+    left_out: [LeftOut; 2],
     /// The prefiltered matrix and its two line families (built at the
     /// first update).
     parts: Option<(GridMatrix, LineFamily, LineFamily)>,
@@ -53,9 +46,20 @@ pub struct AlternatingLines {
 impl AlternatingLines {
     /// Lines of the grid with particle `(i, j)` at `i + j * nu`.
     pub fn new(nu: usize, nv: usize) -> Self {
+        Self::with_left_out(nu, nv, [LeftOut::LOOSE; 2])
+    }
+
+    /// Lines of `grid`, treating what they leave out as suits a cloth on
+    /// it bending as `bend` at steps up to `h` ([`LeftOut::for_cloth`]).
+    pub fn for_cloth(grid: &Grid, bend: &AngleForce<Bend>, h: Real) -> Self {
+        Self::with_left_out(grid.nu, grid.nv, LeftOut::for_cloth(grid, bend, h))
+    }
+
+    fn with_left_out(nu: usize, nv: usize, left_out: [LeftOut; 2]) -> Self {
         Self {
             nu,
             nv,
+            left_out,
             parts: None,
             b: Vec::new(),
             x: Vec::new(),
@@ -71,10 +75,16 @@ impl Preconditioner for AlternatingLines {
 
     fn update(&mut self, a: &BlockCsr, filter: &[Filter]) {
         let (nu, nv) = (self.nu, self.nv);
+        let left_out = self.left_out;
         let (m, warp, weft) = self.parts.get_or_insert_with(|| {
             let m = GridMatrix::new(nu, nv, GridMatrix::offsets_of(a, nu));
-            let warp = LineFamily::new(Direction::U, &m, REACH);
-            let weft = LineFamily::new(Direction::V, &m, REACH);
+            let [warp, weft] = [(Direction::U, left_out[0]), (Direction::V, left_out[1])].map(
+                |(direction, treat)| {
+                    let mut family = LineFamily::new(direction, &m, treat.reach);
+                    family.set_tight(treat.tight);
+                    family
+                },
+            );
             (m, warp, weft)
         });
         m.set_prefiltered(a, filter);

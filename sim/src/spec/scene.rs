@@ -33,6 +33,16 @@ impl Scene {
     pub fn frame_dt(&self) -> Real {
         1.0 / self.fps
     }
+
+    /// The largest step the scene's stepping takes: a fixed step (halved
+    /// when a step overstretches, never lengthened), or a frame, the
+    /// coarsest adaptive step.
+    pub fn largest_step(&self) -> Real {
+        match self.solver.stepping {
+            TimeStepping::Fixed { substeps } => self.frame_dt() / substeps as Real,
+            TimeStepping::Adaptive { .. } => self.frame_dt(),
+        }
+    }
 }
 
 /// The cloth grid with directions normalised and pins as particle indices.

@@ -7,13 +7,13 @@
 //! ```text
 //! L_t,t-2 = A_t,t-2 L_t-2,t-2⁻ᵀ
 //! L_t,t-1 = (A_t,t-1 - L_t,t-2 L_t-1,t-2ᵀ) L_t-1,t-1⁻ᵀ
-//! L_tt L_ttᵀ = A_tt + s I - L_t,t-2 L_t,t-2ᵀ - L_t,t-1 L_t,t-1ᵀ
+//! L_tt L_ttᵀ = A_tt + E_t - L_t,t-2 L_t,t-2ᵀ - L_t,t-1 L_t,t-1ᵀ
 //! ```
 //!
-//! with `s` the diagonal shift that makes up for couplings the smoother
-//! leaves out (`lines`).
+//! with `E_t` the block that makes up for couplings the smoother leaves
+//! out (`lines`).
 
-use super::lanes::{BlockLanes, LANES, Lanes, ZERO_BLOCK, mul_bt, sub_mul_bt};
+use super::lanes::{BlockLanes, LANES, ZERO_BLOCK, mul_bt, sub_mul_bt};
 
 /// A node's part of its line's block-banded Cholesky factor, one lane per
 /// line of the pack: the inverse of its diagonal factor and the factors
@@ -37,15 +37,15 @@ pub const ZERO_FACTOR: NodeFactor = NodeFactor {
 };
 
 /// A node's blocks of its line, one lane per line: its diagonal block
-/// (also the scale of a failed pivot's fallback), the shift added to
+/// (also the scale of a failed pivot's fallback), the block added to
 /// that diagonal, and its couplings to the previous node and the one
 /// before (`A_t,t-1`, `A_t,t-2`; not read at the line's start).
 #[derive(Debug, Clone, Copy)]
 pub struct NodeBlocks {
     /// `A_tt`.
     pub diag: BlockLanes,
-    /// `s`.
-    pub shift: Lanes,
+    /// `E_t`.
+    pub shift: BlockLanes,
     /// `A_t,t-1`.
     pub prev1: BlockLanes,
     /// `A_t,t-2`.
@@ -61,8 +61,8 @@ pub fn factor(factors: &mut [NodeFactor], node: impl Fn(usize) -> NodeBlocks) {
     for (t, f) in factors.iter_mut().enumerate() {
         let a = node(t);
         let mut d = a.diag;
-        for c in 0..3 {
-            for (d, s) in d[4 * c].iter_mut().zip(&a.shift) {
+        for (d, s) in d.iter_mut().zip(&a.shift) {
+            for (d, s) in d.iter_mut().zip(s) {
                 *d += s;
             }
         }

@@ -21,14 +21,20 @@
 //! on `A` itself. With `reach` 1 it is Gauss–Seidel on
 //!
 //! ```text
-//! Ã = A - C + E,   E = Σ over the couplings B left out: |B|_F I on both nodes' diagonals
+//! Ã = A - C + E,   E = Σ over the couplings B left out: X(B) on both nodes' diagonals
 //! ```
 //!
 //! where `C` holds the couplings two or more lines across: for each such
 //! `B` between nodes `p` and `q`, `E - C` adds
-//! `[[|B|_F I, -B], [-Bᵀ, |B|_F I]]`, positive semi-definite since
-//! `2 uᵀ B v ≤ |B|_F (|u|² + |v|²)`; so `Ã ≥ A` is SPD and the smoother
-//! stays an SPD preconditioner, whatever the stencil.
+//! `[[X, -B], [-Bᵀ, X]]`, positive semi-definite by the choice of `X`
+//! (`lines/compensation.rs`), so `Ã ≥ A` is SPD and the smoother stays
+//! an SPD preconditioner, whatever the stencil. The loose `X = |B|_F I`
+//! costs one norm, but resists every motion of the two nodes, their
+//! common translation too, which the couplings (bending) do not; where
+//! that outweighs the particles' masses a falling cloth stiffens in the
+//! preconditioner and CG stalls, so a family puts back the tight `X`,
+//! `B`'s symmetric part and a multiple of `I` for the rest, there
+//! (`solver::lines`).
 //!
 //! Within a colour, the packs of lines are solved on the team and each
 //! writes its own lines' nodes of `x` directly ([`Disjoint`]): a pack
@@ -40,6 +46,7 @@ use super::line_factor::{self, NodeBlocks, NodeFactor, ZERO_FACTOR};
 use crate::parallel::{self, Disjoint};
 use std::ops::Range;
 
+mod compensation;
 mod relax;
 
 /// The lines' direction.
@@ -87,8 +94,14 @@ pub struct LineFamily {
     /// Per pack and node, its Cholesky factors.
     factors: Vec<NodeFactor>,
     /// The matrix's offsets reaching two or more lines across, left out
-    /// of the sweep and made up for on the diagonal.
+    /// of the sweep and made up for on the diagonal, tightly or loosely
+    /// (module doc).
     dropped: Vec<usize>,
+    tight: bool,
+    /// The tight `X` of each coupling left out, per offset reaching
+    /// forward, and their sums per node (`compensation::tight_sums`).
+    tight_pairs: Vec<Vec<Block>>,
+    tight_sum: Vec<Block>,
 }
 
 /// What a sweep may assume about `x` on entry, to skip work whose result
@@ -113,6 +126,24 @@ const SWEEP_PARALLEL_MIN: usize = 64;
 
 /// An off-line neighbour outside the grid, or a padding lane.
 const MISSING: u32 = u32::MAX;
+
+/// The offsets of `a`'s stencil whose distance across `direction`'s lines
+/// passes `keep`.
+fn offsets_across(
+    direction: Direction,
+    a: &GridMatrix,
+    keep: &dyn Fn(usize) -> bool,
+) -> Vec<usize> {
+    (0..a.offsets().len())
+        .filter(|&k| {
+            let (di, dj) = a.offsets()[k];
+            keep(match direction {
+                Direction::U => dj.unsigned_abs() as usize,
+                Direction::V => di.unsigned_abs() as usize,
+            })
+        })
+        .collect()
+}
 
 /// Scratch of a sweep: one buffer per pack, so the packs of a colour can
 /// be solved at once.
@@ -149,18 +180,8 @@ impl LineFamily {
         }
         let packs = pack_lines.len() / LANES;
         colour_start[colours] = packs;
-        let across = |(di, dj): (i32, i32)| match direction {
-            Direction::U => dj.abs(),
-            Direction::V => di.abs(),
-        };
-        let reach = reach as i32;
-        let slots = |keep: &dyn Fn(i32) -> bool| -> Vec<usize> {
-            (0..a.offsets().len())
-                .filter(|&k| keep(across(a.offsets()[k])))
-                .collect()
-        };
-        let off = slots(&|d| d >= 1 && d <= reach);
-        let dropped = slots(&|d| d > reach);
+        let off = offsets_across(direction, a, &|d| d >= 1 && d <= reach);
+        let dropped = offsets_across(direction, a, &|d| d > reach);
         let width = off.len();
         let stride = a.offsets().len();
         let mut nodes = vec![[0; LANES]; packs * len];
@@ -204,7 +225,7 @@ impl LineFamily {
             len,
             lines,
             grid_nodes,
-            reach: reach as usize,
+            reach,
             colour_start,
             pack_lines,
             nodes,
@@ -214,9 +235,18 @@ impl LineFamily {
             off_source,
             factors: vec![ZERO_FACTOR; packs * len],
             dropped,
+            tight: false,
+            tight_pairs: Vec::new(),
+            tight_sum: Vec::new(),
         };
         f.factor(a);
         f
+    }
+
+    /// Puts the couplings left out back tightly (`true`) or loosely
+    /// (module doc) from the next [`LineFamily::factor`] on.
+    pub fn set_tight(&mut self, tight: bool) {
+        self.tight = tight;
     }
 
     /// Copies `a`'s couplings between lines and factors every line. A
@@ -253,11 +283,20 @@ impl LineFamily {
         let (nodes, pack_lines) = (&self.nodes, &self.pack_lines);
         let get = |p: usize, k: Option<usize>| k.map_or(Block::zeros(), |k| a.row(p)[k]);
         // The couplings the smoother leaves out, each `B` put back on both
-        // its nodes' diagonals as `|B|_F I` (module doc).
+        // its nodes' diagonals as `X(B)` (module doc).
         let dropped = &self.dropped;
-        let compensation = |p: usize| -> f32 {
-            let row = a.row(p);
-            dropped.iter().map(|&k| row[k].norm()).sum()
+        if self.tight {
+            compensation::tight_sums(a, dropped, &mut self.tight_pairs, &mut self.tight_sum);
+        }
+        let (tight, tight_sum) = (self.tight, &self.tight_sum);
+        let compensation = |p: usize| -> Block {
+            if tight {
+                tight_sum[p]
+            } else {
+                let row = a.row(p);
+                let loose: f32 = dropped.iter().map(|&k| compensation::loose(&row[k])).sum();
+                Block::from_diagonal_element(loose)
+            }
         };
         parallel::for_rows(
             &mut self.factors,
@@ -278,11 +317,12 @@ impl LineFamily {
                 };
                 line_factor::factor(factors, |t| {
                     let diag = lanes(t, &|p| get(p, k0), Block::identity());
-                    let mut shift = [0.0; LANES];
+                    let mut shift = ZERO_BLOCK;
                     if !dropped.is_empty() {
-                        for (lane, shift) in shift.iter_mut().enumerate() {
+                        for lane in 0..LANES {
                             if pack_lines[pack * LANES + lane] != MISSING {
-                                *shift = compensation(nodes[pack * len + t][lane] as usize);
+                                let p = nodes[pack * len + t][lane] as usize;
+                                set_block(&mut shift, lane, &compensation(p));
                             }
                         }
                     }
