@@ -9,10 +9,13 @@
 //! the path tracked by `serde_path_to_error`: every error there — wrong
 //! type, unknown field, wrong length, number out of range — is the
 //! document's shape, [`SpecLoadError::Invalid`] at the field's path. Rule
-//! violations come from [`Spec::validate`]. Both end as [`SpecErrors`].
+//! violations come from [`Spec::validate`], and what only the built scene
+//! shows (a cloth starting inside an obstacle) from `World::check`. All
+//! end as [`SpecErrors`].
 
 mod whole_numbers;
 
+use drapery_sim::sim::{SimError, World};
 use drapery_sim::spec::{Limits, Scene, Spec, SpecError, SpecErrors};
 use serde::Deserialize;
 
@@ -46,6 +49,14 @@ impl SpecLoadError {
 /// Parses `text` into a [`Spec`] (no rule checks yet).
 pub fn parse(text: &str) -> Result<Spec, SpecLoadError> {
     check_syntax(text)?;
+    // A well-formed document that is not an object (an array would be
+    // read as the spec's fields in order, with a baffling message).
+    if !text.trim_start().starts_with('{') {
+        return Err(SpecLoadError::Invalid(SpecErrors(vec![SpecError {
+            path: String::new(),
+            message: "the spec must be a JSON object".into(),
+        }])));
+    }
     let de = &mut serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize::<_, Spec>(WholeNumbers(de)).map_err(|e| {
         let path = e.path().to_string();
@@ -64,11 +75,21 @@ fn check_syntax(text: &str) -> Result<(), SpecLoadError> {
         .map_err(|e| SpecLoadError::Malformed(e.to_string()))
 }
 
-/// Parses and validates `text` under `limits`.
+/// Parses and validates `text` under `limits`, and checks that the
+/// scene can be built (`World::check`: an obstacle the cloth starts
+/// inside is refused by name, like any other bad field).
 pub fn load(text: &str, limits: &Limits) -> Result<Scene, SpecLoadError> {
-    parse(text)?
+    let scene = parse(text)?
         .validate(limits)
-        .map_err(SpecLoadError::Invalid)
+        .map_err(SpecLoadError::Invalid)?;
+    World::check(&scene).map_err(|e| {
+        let (path, message) = match e {
+            SimError::Obstacle { index, message } => (format!("obstacles[{index}]"), message),
+            other => (String::new(), other.to_string()),
+        };
+        SpecLoadError::Invalid(SpecErrors(vec![SpecError { path, message }]))
+    })?;
+    Ok(scene)
 }
 
 #[cfg(test)]
@@ -87,6 +108,41 @@ mod tests {
     fn accepts_a_minimal_spec() {
         let scene = load(OK, &Limits::default()).expect("valid");
         assert_eq!(scene.frames, 10);
+    }
+
+    /// A cloth that starts inside an obstacle is refused, naming the
+    /// obstacle and the particle; one laid exactly on a surface is not.
+    #[test]
+    fn a_cloth_starting_inside_an_obstacle_is_refused_by_name() {
+        let spec = |obstacles: &str| {
+            format!(
+                r#"{{"cloth": {{"grid": [11, 11], "size": [1, 1], "origin": [-0.5, -0.5, 0.3]}},
+                    "material": "cotton", "duration": 1, "fps": 10, "obstacles": [{obstacles}]}}"#
+            )
+        };
+        let plane = r#"{"plane": {"point": [0, 0, 0.3], "normal": [0, 0, 1]}}"#;
+        let sphere = r#"{"sphere": {"center": [0, 0, 0.3], "radius": 0.1}}"#;
+        let floor = r#"{"plane": {"point": [0, 0, 0], "normal": [0, 0, 1]}}"#;
+        load(&spec(plane), &Limits::default()).expect("lying on a plane");
+        let e = errors(&spec(&format!("{floor}, {sphere}")));
+        assert_eq!(e.len(), 1, "{e:?}");
+        assert_eq!(e[0].path, "obstacles[1]", "{e:?}");
+        assert!(
+            e[0].message.contains("starts inside") && e[0].message.contains("particle [5, 5]"),
+            "{e:?}"
+        );
+        assert!(e[0].message.contains("1.000e-1 m"), "{e:?}");
+    }
+
+    #[test]
+    fn a_document_that_is_not_an_object_is_refused_as_such() {
+        for text in ["[1, 2]", "\"cloth\"", " 3"] {
+            let e = errors(text);
+            assert_eq!(
+                e[0].message, "the spec must be a JSON object",
+                "{text}: {e:?}"
+            );
+        }
     }
 
     #[test]
