@@ -6,6 +6,7 @@ use std::io::Cursor;
 
 use base64::Engine;
 
+use super::polygon;
 use super::trimesh::{MeshError, TriMesh};
 use crate::math::Vec3;
 use crate::spec::MeshSource;
@@ -23,11 +24,14 @@ pub fn from_source(source: &MeshSource) -> Result<TriMesh, MeshError> {
     TriMesh::new(vertices.iter().map(|v| Vec3::from(*v)).collect(), triangles)
 }
 
-/// Parses OBJ text; polygons are triangulated, every object and group is
+/// Parses OBJ text; polygons are cut into triangles that cover them
+/// exactly, concave ones too (`polygon`), every object and group is
 /// merged into one mesh, materials are ignored.
 pub fn from_obj(text: &str) -> Result<TriMesh, MeshError> {
     let options = tobj::LoadOptions {
-        triangulate: true,
+        // NOTE: tobj triangulates as a fan, which covers a concave face's
+        // notch; the faces come whole and `polygon` cuts them.
+        triangulate: false,
         single_index: true,
         ..Default::default()
     };
@@ -36,6 +40,12 @@ pub fn from_obj(text: &str) -> Result<TriMesh, MeshError> {
         Ok(Default::default())
     })
     .map_err(|e| MeshError(format!("is not valid OBJ: {e}")))?;
+    if models.iter().all(|m| m.mesh.indices.is_empty())
+        && text.lines().any(|l| l.trim_start().starts_with("v "))
+    {
+        // tobj keeps only the vertices that faces use.
+        return Err(MeshError("has vertices but no faces (`f` lines)".into()));
+    }
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     for model in &models {
@@ -46,11 +56,28 @@ pub fn from_obj(text: &str) -> Result<TriMesh, MeshError> {
                 .chunks_exact(3)
                 .map(|p| Vec3::new(p[0], p[1], p[2])),
         );
-        triangles.extend(
-            m.indices
-                .chunks_exact(3)
-                .map(|t| [base + t[0], base + t[1], base + t[2]]),
-        );
+        if m.face_arities.is_empty() {
+            // Triangles only.
+            triangles.extend(
+                m.indices
+                    .chunks_exact(3)
+                    .map(|t| [base + t[0], base + t[1], base + t[2]]),
+            );
+            continue;
+        }
+        let (mut start, mut cut) = (0, Vec::new());
+        for &arity in &m.face_arities {
+            let face = &m.indices[start..start + arity as usize];
+            start += arity as usize;
+            let corners = face
+                .iter()
+                .map(|&i| vertices.get((base + i) as usize).copied())
+                .collect::<Option<Vec<Vec3>>>()
+                .ok_or_else(|| MeshError("has a face with a vertex index out of range".into()))?;
+            cut.clear();
+            polygon::triangulate(&corners, &mut cut);
+            triangles.extend(cut.iter().map(|t| t.map(|k| base + face[k])));
+        }
     }
     TriMesh::new(vertices, triangles)
 }
@@ -98,7 +125,30 @@ mod tests {
         let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
         assert_eq!(from_obj(quad).expect("quad").triangles().len(), 2);
         assert!(from_obj("v 0 0 0\nf 1 2 3\n").is_err());
+        assert!(from_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3 9\n").is_err());
         assert!(from_obj("").expect_err("empty").0.contains("no"));
+        let points = from_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\n").expect_err("no faces");
+        assert!(points.0.contains("no faces"), "{points:?}");
+    }
+
+    /// An L-shaped face listed from the corner before its reflex one
+    /// loads as triangles that cover the L and nothing over its notch (a
+    /// fan laid one there).
+    #[test]
+    fn obj_concave_faces_are_cut_exactly() {
+        let l = "v 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 0\nv 2 0 0\nf 1 2 3 4 5 6\n";
+        let m = from_obj(l).expect("L");
+        assert_eq!(m.triangles().len(), 4);
+        let mut area = 0.0;
+        for t in m.triangles() {
+            let [a, b, c] = t.map(|k| m.vertices()[k as usize]);
+            let n = (b - a).cross(&(c - a));
+            assert!(n.z > 0.0, "{t:?} flipped");
+            area += n.z / 2.0;
+            let centre = (a + b + c) / 3.0;
+            assert!(!(centre.x > 1.0 && centre.y > 1.0), "{t:?} over the notch");
+        }
+        assert!((area - 3.0).abs() < 1e-12, "{area}");
     }
 
     #[test]
