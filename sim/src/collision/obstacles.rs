@@ -124,13 +124,7 @@ mod tests {
                 center: [0.0, 0.0, 0.0],
                 radius: 0.1,
             }),
-            box_: None,
-            plane: None,
-            cylinder: None,
-            mesh: None,
-            friction: 0.0,
-            offset: None,
-            motion: None,
+            ..Obstacle::default()
         };
         let obstacles = Obstacles::new(&[ball], 0.01)
             .expect("builds")

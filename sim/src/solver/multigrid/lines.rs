@@ -34,7 +34,7 @@
 //! that outweighs the particles' masses a falling cloth stiffens in the
 //! preconditioner and CG stalls, so a family puts back the tight `X`,
 //! `B`'s symmetric part and a multiple of `I` for the rest, there
-//! (`solver::lines`).
+//! (`solver::left_out`).
 //!
 //! Within a colour, the packs of lines are solved on the team and each
 //! writes its own lines' nodes of `x` directly ([`Disjoint`]): a pack
