@@ -60,11 +60,28 @@ pub fn parse(text: &str) -> Result<Spec, SpecLoadError> {
     let de = &mut serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize::<_, Spec>(WholeNumbers(de)).map_err(|e| {
         let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        let message = e.into_inner().to_string();
         SpecLoadError::Invalid(SpecErrors(vec![SpecError {
-            path: if path == "." { String::new() } else { path },
-            message: e.into_inner().to_string(),
+            path: field_path(path, &message),
+            message,
         }]))
     })
+}
+
+/// The path of an error about a field that is missing or given twice:
+/// serde names the field in its message and the path stops at the object
+/// holding it (`cloth` for a missing `cloth.grid`).
+fn field_path(path: String, message: &str) -> String {
+    let named = ["missing field `", "duplicate field `"]
+        .iter()
+        .find_map(|lead| message.strip_prefix(lead))
+        .and_then(|rest| rest.split('`').next());
+    match named {
+        Some(field) if path.is_empty() => field.to_owned(),
+        Some(field) => format!("{path}.{field}"),
+        None => path,
+    }
 }
 
 /// `text` is one JSON document and nothing after it but white space.
@@ -79,9 +96,16 @@ fn check_syntax(text: &str) -> Result<(), SpecLoadError> {
 /// scene can be built (`World::check`: an obstacle the cloth starts
 /// inside is refused by name, like any other bad field).
 pub fn load(text: &str, limits: &Limits) -> Result<Scene, SpecLoadError> {
-    let scene = parse(text)?
-        .validate(limits)
-        .map_err(SpecLoadError::Invalid)?;
+    load_spec(text, limits).map(|(scene, _)| scene)
+}
+
+/// [`load`], with the spec as read: what the service stores
+/// (re-serialised, so the stored text is as long as what it says, not as
+/// the body that said it: white space or a number of twenty million
+/// digits cost nothing to store or to read back).
+pub fn load_spec(text: &str, limits: &Limits) -> Result<(Scene, Spec), SpecLoadError> {
+    let spec = parse(text)?;
+    let scene = spec.validate(limits).map_err(SpecLoadError::Invalid)?;
     World::check(&scene).map_err(|e| {
         let (path, message) = match e {
             SimError::Obstacle { index, message } => (format!("obstacles[{index}]"), message),
@@ -89,7 +113,15 @@ pub fn load(text: &str, limits: &Limits) -> Result<Scene, SpecLoadError> {
         };
         SpecLoadError::Invalid(SpecErrors(vec![SpecError { path, message }]))
     })?;
-    Ok(scene)
+    Ok((scene, spec))
+}
+
+/// A spec stored by the service, which [`load`] accepted when it was
+/// submitted: parsed and validated again, not built.
+pub fn load_stored(text: &str) -> Result<Scene, SpecLoadError> {
+    parse(text)?
+        .validate(&Limits::default())
+        .map_err(SpecLoadError::Invalid)
 }
 
 #[cfg(test)]
@@ -132,6 +164,55 @@ mod tests {
             "{e:?}"
         );
         assert!(e[0].message.contains("1.000e-1 m"), "{e:?}");
+    }
+
+    /// An object given as the sequence of its fields is refused: serde
+    /// would read it in field order.
+    #[test]
+    fn objects_given_as_sequences_are_refused_at_their_path() {
+        let e = errors(&OK.replace(r#"{"grid": [3, 3], "size": [1, 1]}"#, "[[3, 3], [1, 1]]"));
+        assert_eq!(e[0].path, "cloth", "{e:?}");
+        assert!(e[0].message.contains("invalid type: sequence"), "{e:?}");
+    }
+
+    /// Every example scene, re-serialised as the service stores it, reads
+    /// back as the same spec and scene.
+    #[test]
+    fn specs_survive_their_re_serialisation() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/scenes");
+        let mut read = 0;
+        for entry in std::fs::read_dir(dir).expect("examples") {
+            let text = std::fs::read_to_string(entry.expect("entry").path()).expect("scene");
+            let (scene, spec) = load_spec(&text, &Limits::default()).expect("loads");
+            let stored = serde_json::to_string(&spec).expect("serialises");
+            assert_eq!(parse(&stored).expect("parses"), spec);
+            assert_eq!(load_stored(&stored).expect("loads"), scene);
+            read += 1;
+        }
+        assert!(read >= 9, "{read} example scenes");
+    }
+
+    /// The frame limit counts the frames written, frame 0 included.
+    #[test]
+    fn the_frame_limit_counts_frame_zero() {
+        let limits = |max_frames| Limits {
+            max_frames,
+            ..Limits::default()
+        };
+        load(OK, &limits(11)).expect("11 frames at the limit");
+        let e = load(OK, &limits(10)).expect_err("11 frames over").errors();
+        assert_eq!(e[0].path, "fps", "{e:?}");
+        assert!(e[0].message.starts_with("11 frames"), "{e:?}");
+    }
+
+    /// A missing or repeated field's error names the field itself.
+    #[test]
+    fn missing_and_repeated_fields_are_named_in_the_path() {
+        assert_eq!(errors("{}")[0].path, "cloth");
+        let e = errors(&OK.replace(r#""grid": [3, 3], "#, ""));
+        assert_eq!(e[0].path, "cloth.grid", "{e:?}");
+        let e = errors(&OK.replace(r#""fps": 10"#, r#""fps": 10, "duration": 2"#));
+        assert_eq!(e[0].path, "duration", "{e:?}");
     }
 
     #[test]

@@ -201,7 +201,7 @@ pub async fn frame(
     let binary = headers
         .get(header::ACCEPT)
         .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.contains("application/octet-stream"));
+        .is_some_and(super::accept::prefers_binary);
     if binary {
         let body = binary_frame(f.n, f.time, &f.positions);
         return Ok(([(header::CONTENT_TYPE, "application/octet-stream")], body).into_response());

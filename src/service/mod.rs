@@ -13,6 +13,7 @@
 //! restart recovers every job and every stored frame, and nodes sharing a
 //! PostgreSQL store share its jobs (a worker claims one under a lease).
 
+mod accept;
 mod api;
 mod auth;
 mod config;

@@ -136,7 +136,8 @@ impl<'de, D: Deserializer<'de>> Deserializer<'de> for WholeNumbers<D> {
         fields: &'static [&'static str],
         visitor: V,
     ) -> Result<V::Value, D::Error> {
-        self.0.deserialize_struct(name, fields, Wrap(visitor))
+        self.0
+            .deserialize_struct(name, fields, MapOnly(Wrap(visitor)))
     }
 
     fn deserialize_enum<V: Visitor<'de>>(
@@ -150,6 +151,24 @@ impl<'de, D: Deserializer<'de>> Deserializer<'de> for WholeNumbers<D> {
 
     fn is_human_readable(&self) -> bool {
         self.0.is_human_readable()
+    }
+}
+
+/// A struct's visitor that takes a map only. serde's derived structs also
+/// accept their fields as a sequence, in declaration order; a spec must
+/// not (`[name, cloth, ...]` would mean what the field order says), so a
+/// sequence is "invalid type: sequence, expected struct ..." at its path.
+struct MapOnly<V>(V);
+
+impl<'de, V: Visitor<'de>> Visitor<'de> for MapOnly<V> {
+    type Value = V::Value;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.expecting(f)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<V::Value, A::Error> {
+        self.0.visit_map(map)
     }
 }
 

@@ -32,7 +32,10 @@ impl Jobs {
 
     fn submit_now(&self, owner: &str, body: &[u8]) -> Result<JobRow, SubmitError> {
         let text = std::str::from_utf8(body).map_err(SubmitError::NotUtf8)?;
-        let scene = specfile::load(text, &self.config.limits).map_err(SubmitError::Spec)?;
+        let (scene, spec) =
+            specfile::load_spec(text, &self.config.limits).map_err(SubmitError::Spec)?;
+        // The spec as read, not the body: as long as what it says.
+        let stored = serde_json::to_string(&spec).unwrap_or_else(|_| text.to_owned());
         let estimate = cost::estimate(&scene, mesh_triangles(&scene));
         let over = self.config.budgets.check(&estimate);
         if !over.is_empty() {
@@ -57,7 +60,7 @@ impl Jobs {
             id,
             owner,
             name: &scene.name,
-            spec: text,
+            spec: &stored,
             hello: "",
             frames_total: scene.frames as u64 + 1,
             created_at: now(),

@@ -2,7 +2,7 @@
 //! ending, a frame. The backends (`sqlite`, `postgres`) map these to their
 //! tables; nothing above the store sees SQL.
 
-use drapery_sim::spec::{Limits, Scene};
+use drapery_sim::spec::Scene;
 
 use crate::service::job::{JobError, JobId, Status};
 use crate::specfile::{self, SpecLoadError};
@@ -45,7 +45,7 @@ impl JobRow {
     /// against the service's limits; the core's own limits only guard
     /// against a corrupted store here.
     pub fn scene(&self) -> std::result::Result<Scene, SpecLoadError> {
-        specfile::load(&self.spec, &Limits::default())
+        specfile::load_stored(&self.spec)
     }
 
     /// Why it failed, if it did.

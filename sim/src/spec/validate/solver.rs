@@ -21,10 +21,15 @@ pub(super) fn validate_timing(spec: &Spec, limits: &Limits, c: &mut Check) -> Op
         );
         return None;
     }
-    if frames > limits.max_frames {
+    // The output holds frame 0 too.
+    if frames + 1 > limits.max_frames {
         c.fail(
             "fps",
-            format!("{frames} frames exceeds the limit of {}", limits.max_frames),
+            format!(
+                "{} frames (frame 0 included) exceeds the limit of {}",
+                frames + 1,
+                limits.max_frames
+            ),
         );
         return None;
     }
