@@ -14,14 +14,15 @@ use crate::math::{Real, Vec3};
 /// The triangles of the face with corners `points` (in order), as index
 /// triples into `points`, appended to `out`. A face whose corners are not
 /// a simple polygon in its plane (self-crossing, or collinear) falls back
-/// to a fan for what ear clipping cannot cut.
+/// to a fan for what ear clipping cannot cut, and so does a face of more
+/// than [`CLIP_MAX`] corners.
 pub fn triangulate(points: &[Vec3], out: &mut Vec<[usize; 3]>) {
     let n = points.len();
     if n < 3 {
         return;
     }
     let normal = newell_normal(points);
-    if n == 3 || normal.norm() == 0.0 {
+    if n == 3 || n > CLIP_MAX || normal.norm() == 0.0 {
         fan(&(0..n).collect::<Vec<_>>(), out);
         return;
     }
@@ -48,6 +49,14 @@ pub fn triangulate(points: &[Vec3], out: &mut Vec<[usize; 3]>) {
     }
     fan(&left, out);
 }
+
+/// Most corners a face is ear-clipped with. Clipping costs up to `n³`
+/// tests a face (an ear search scans the corners, and each candidate
+/// tests every other corner), so a spec's OBJ text, a face of thousands
+/// of corners in a few kilobytes, must not reach it unbounded: with this
+/// cap a mesh at the service's 2·10⁶-triangle limit costs at most about
+/// 2·10⁹ tests. Larger faces are cut as a fan, as OBJ readers do.
+pub const CLIP_MAX: usize = 32;
 
 /// Triangles `(c₀, cₖ, cₖ₊₁)` over `corners`.
 fn fan(corners: &[usize], out: &mut Vec<[usize; 3]>) {
@@ -152,6 +161,22 @@ mod tests {
         let mut tris = Vec::new();
         triangulate(&quad[..3], &mut tris);
         assert_eq!(tris, vec![[0, 1, 2]]);
+    }
+
+    /// A face of more corners than [`CLIP_MAX`] is cut as a fan, at once.
+    #[test]
+    fn large_faces_are_cut_as_a_fan() {
+        let n = 100_000;
+        let circle: Vec<Vec3> = (0..n)
+            .map(|k| {
+                let a = k as Real / n as Real * std::f64::consts::TAU;
+                Vec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let mut tris = Vec::new();
+        triangulate(&circle, &mut tris);
+        assert_eq!(tris.len(), n - 2);
+        assert_eq!(tris[0], [0, 1, 2]);
     }
 
     /// A degenerate face (all corners on a line) still yields triangles

@@ -76,7 +76,7 @@ fn obstacles_of(scene: &Scene, grid: &Grid) -> Result<Option<Obstacles>, SimErro
             }
         })?;
     if let Some(o) = &obstacles {
-        refuse_starting_inside(o, grid, scene)?;
+        refuse_starting_inside(o, grid)?;
     }
     Ok(obstacles)
 }
@@ -91,11 +91,7 @@ const START_INSIDE_TOLERANCE: Real = 1e-9;
 /// cloth gathers the springs' pull into speed and is thrown off (a sheet
 /// through a 5 cm rod left at 36 m/s), and a solid it cannot leave (it
 /// cuts through a sphere, or lies inside a box) tears it.
-fn refuse_starting_inside(
-    obstacles: &Obstacles,
-    grid: &Grid,
-    scene: &Scene,
-) -> Result<(), SimError> {
+fn refuse_starting_inside(obstacles: &Obstacles, grid: &Grid) -> Result<(), SimError> {
     match obstacles.deepest_inside(&grid.rest, 0.0, START_INSIDE_TOLERANCE) {
         None => Ok(()),
         Some((index, particle, depth)) => Err(SimError::Obstacle {
@@ -103,8 +99,8 @@ fn refuse_starting_inside(
             message: format!(
                 "the cloth starts inside it: particle [{}, {}] is {depth:.3e} m inside its surface \
                  (start the cloth outside every obstacle)",
-                particle % scene.cloth.nu,
-                particle / scene.cloth.nu
+                particle % grid.nu,
+                particle / grid.nu
             ),
         }),
     }

@@ -35,13 +35,10 @@ pub fn tight_sums(
     sum: &mut Vec<Block>,
 ) {
     let n = a.len();
-    let forward: Vec<usize> = dropped
-        .iter()
-        .copied()
-        .filter(|&k| a.offsets()[k] > (0, 0))
-        .collect();
-    pairs.resize(forward.len(), Vec::new());
-    for (pair, &k) in pairs.iter_mut().zip(&forward) {
+    // PERF: no list is gathered: this runs at every factorisation.
+    let forward = || dropped.iter().copied().filter(|&k| a.offsets()[k] > (0, 0));
+    pairs.resize(forward().count(), Vec::new());
+    for (pair, k) in pairs.iter_mut().zip(forward()) {
         pair.resize(n, Block::zeros());
         parallel::for_chunks_min(pair, parallel::ROWS_MIN, |start, out| {
             for (q, x) in out.iter_mut().enumerate() {
@@ -56,7 +53,7 @@ pub fn tight_sums(
             let p = start + q;
             let (i, j) = (p % nu, p / nu);
             *x = Block::zeros();
-            for (pair, &k) in pairs.iter().zip(&forward) {
+            for (pair, k) in pairs.iter().zip(forward()) {
                 *x += pair[p];
                 let (di, dj) = a.offsets()[k];
                 let (bi, bj) = (i as i32 - di, j as i32 - dj);
