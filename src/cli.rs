@@ -178,6 +178,11 @@ pub struct ServeArgs {
     /// before it is closed.
     #[arg(long, env = "DRAPERY_IDLE_TIMEOUT", default_value_t = 60.0)]
     pub idle_timeout: f64,
+    /// Result downloads built at once: each is held in memory whole until
+    /// it is sent, so this bounds their memory; more wait up to 10 s for
+    /// their turn, then get 429 with `Retry-After`.
+    #[arg(long, env = "DRAPERY_MAX_DOWNLOADS", default_value_t = 2)]
+    pub max_downloads: usize,
     /// Per-job memory budget (`2GiB`, `512MiB`, bytes): a spec whose
     /// estimated solver memory is larger gets `422 over_budget`.
     #[arg(long, env = "DRAPERY_JOB_MEMORY_BUDGET", default_value = "2GiB", value_parser = parse_bytes)]

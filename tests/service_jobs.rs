@@ -230,6 +230,40 @@ async fn results_download_in_three_formats() {
     s.stop().await;
 }
 
+/// Downloads beyond `--max-downloads` wait their turn instead of being
+/// built at once: four at a time with one turn all arrive, whole and
+/// alike (a turn not given back with its body would leave the others
+/// `429` after their wait).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn downloads_beyond_the_limit_wait_their_turn() {
+    let s = Service::start(&data_dir("turns"), &["--max-downloads", "1"]).await;
+    let id = submit(&s, &hanging(30, 2.0)).await["id"]
+        .as_str()
+        .expect("id")
+        .to_owned();
+    job_after_done(&s, &id).await;
+    let http = client();
+    let url = s.url(&format!("/v1/jobs/{id}/result?format=glb"));
+    let gets = (0..4).map(|_| {
+        let (http, url) = (http.clone(), url.clone());
+        tokio::spawn(async move {
+            let r = http.get(url).send().await.expect("request");
+            let length = r.content_length();
+            (r.status(), length, r.bytes().await.expect("body"))
+        })
+    });
+    let mut bodies = Vec::new();
+    for get in gets.collect::<Vec<_>>() {
+        let (status, length, body) = get.await.expect("joined");
+        assert_eq!(status, 200);
+        assert_eq!(length, Some(body.len() as u64), "sent with its length");
+        bodies.push(body);
+    }
+    assert_eq!(&bodies[0][..4], b"glTF");
+    assert!(bodies.iter().all(|b| *b == bodies[0]));
+    s.stop().await;
+}
+
 /// Stopping the service (what SIGTERM does) stops a running job at a
 /// frame and queues it again, and returns only once the workers are
 /// joined; a service started again on the same data resumes the job from

@@ -5,6 +5,7 @@
 //! [`Jobs`]: super::jobs::Jobs
 
 use axum::Json;
+use axum::body::Body;
 use axum::extract::{Extension, Path, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -14,6 +15,7 @@ use utoipa::{IntoParams, ToSchema};
 use super::error::{ApiError, ErrorResponse};
 use super::extract::{JsonBody, Query};
 use super::frame_bytes::{binary_frame, decode_positions};
+use super::held_body::HeldBody;
 use super::jobs::ListFilter;
 use super::keys::Owner;
 use super::results::Format;
@@ -240,6 +242,7 @@ pub struct ResultQuery {
         (status = 401, description = "Missing or invalid API key", body = ErrorResponse),
         (status = 404, description = "No such job", body = ErrorResponse),
         (status = 409, description = "The job has not ended, or stored no frame", body = ErrorResponse),
+        (status = 429, description = "Every download turn (`--max-downloads`) stayed taken for 10 s; see `Retry-After`", body = ErrorResponse),
     ),
     security(("api_key" = []))
 )]
@@ -250,14 +253,14 @@ pub async fn result(
     Query(q): Query<ResultQuery>,
 ) -> Result<Response, ApiError> {
     let format = q.format.unwrap_or(Format::Obj);
-    let (row, bytes) = state.jobs.download(&owner, &id, format).await?;
+    let (row, bytes, turn) = state.jobs.download(&owner, &id, format).await?;
     let disposition = format!("attachment; filename=\"{}.{}\"", row.id, format.extension());
     Ok((
         [
             (header::CONTENT_TYPE, format.content_type().to_owned()),
             (header::CONTENT_DISPOSITION, disposition),
         ],
-        bytes,
+        Body::new(HeldBody::new(bytes, turn)),
     )
         .into_response())
 }

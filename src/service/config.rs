@@ -35,6 +35,8 @@ pub struct Config {
     pub body_timeout: Duration,
     /// A kept-alive connection's silence between requests.
     pub idle_timeout: Duration,
+    /// Result downloads built and held at once.
+    pub max_downloads: usize,
     /// Per-job memory, disk and estimated time.
     pub budgets: Budgets,
     /// Which ended jobs are deleted.
@@ -60,6 +62,8 @@ pub enum ConfigError {
     NonPositiveLimit,
     #[error("--max-connections must be at least 1")]
     NoConnections,
+    #[error("--max-downloads must be at least 1")]
+    NoDownloads,
     #[error("{0} must be a positive number of seconds")]
     Timeout(&'static str),
     #[error("--job-memory-budget, --job-disk-budget and --job-time-budget must be positive")]
@@ -99,6 +103,9 @@ impl Config {
         }
         if a.max_connections < 1 {
             return Err(ConfigError::NoConnections);
+        }
+        if a.max_downloads < 1 {
+            return Err(ConfigError::NoDownloads);
         }
         let seconds = |flag: &'static str, s: f64| {
             Duration::try_from_secs_f64(s)
@@ -141,6 +148,7 @@ impl Config {
             header_timeout: seconds("--header-timeout", a.header_timeout)?,
             body_timeout: seconds("--body-timeout", a.body_timeout)?,
             idle_timeout: seconds("--idle-timeout", a.idle_timeout)?,
+            max_downloads: a.max_downloads,
             budgets,
             retention: a.retention.clone(),
         })
@@ -197,5 +205,15 @@ mod tests {
         }
         let e = config(&["--store-connections", "0"]).expect_err("no connections");
         assert!(e.to_string().starts_with("--store-connections"), "{e}");
+    }
+
+    /// Every client-facing bound must let something through.
+    #[test]
+    fn bounds_of_zero_are_refused_naming_the_flag() {
+        for flag in ["--queue-capacity", "--max-connections", "--max-downloads"] {
+            let e = config(&[flag, "0"]).expect_err("zero");
+            assert!(e.to_string().starts_with(flag), "{e}");
+        }
+        assert_eq!(config(&[]).expect("defaults").max_downloads, 2);
     }
 }

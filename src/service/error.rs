@@ -223,6 +223,9 @@ impl From<JobsError> for ApiError {
             JobsError::AlreadyEnded(_) | JobsError::NotEnded(_) | JobsError::NoFrames => {
                 Self::new(ErrorCode::Conflict, message)
             }
+            JobsError::DownloadsBusy { .. } => {
+                Self::new(ErrorCode::QueueFull, message).retry_later()
+            }
             JobsError::Fault(f) => f.into(),
         }
     }

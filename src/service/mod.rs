@@ -14,6 +14,7 @@
 //! PostgreSQL store share its jobs (a worker claims one under a lease).
 
 mod accept;
+mod allocator;
 mod api;
 mod auth;
 mod config;
@@ -24,6 +25,7 @@ mod error_code;
 mod extract;
 mod frame_bytes;
 mod guard;
+mod held_body;
 mod job;
 mod jobs;
 mod keys;

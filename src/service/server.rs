@@ -265,6 +265,7 @@ async fn drain(jobs: &Jobs, config: &Config, workers: Vec<JoinHandle<()>>) {
 /// `drapery serve`: runs the service on `args.addr` until SIGTERM or
 /// SIGINT.
 pub fn serve(args: &ServeArgs) -> Result<(), ServeError> {
+    super::allocator::return_large_blocks();
     let config = Config::from_args(args)?;
     let store = open_store(args)?;
     let state = AppState::new(config, store);

@@ -73,6 +73,9 @@ pub enum JobsError {
     /// Downloading a job that ended before its first frame.
     #[error("the job stored no frame")]
     NoFrames,
+    /// Every download turn stayed taken for the whole wait.
+    #[error("{turns} downloads are being built or sent (--max-downloads); try again later")]
+    DownloadsBusy { turns: usize },
     #[error(transparent)]
     Fault(#[from] Fault),
 }

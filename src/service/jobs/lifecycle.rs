@@ -13,6 +13,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
+use tokio::sync::Semaphore;
+
 use super::error::Fault;
 use super::hub::Hub;
 use super::running::{Running, StopReason};
@@ -39,12 +41,16 @@ pub struct Jobs {
     /// node never takes the queue past its capacity (several nodes may,
     /// by a job each at most).
     submit: Mutex<()>,
+    /// Turns of result downloads (`--max-downloads`): each is built and
+    /// held whole in memory until sent (`service::held_body`).
+    pub(super) downloads: Arc<Semaphore>,
 }
 
 impl Jobs {
     pub fn new(config: Arc<Config>, store: Store) -> Self {
         Self {
             metrics: Metrics::new(&config.node),
+            downloads: Arc::new(Semaphore::new(config.max_downloads)),
             config,
             store,
             wakeup: Wakeup::default(),

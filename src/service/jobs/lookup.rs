@@ -3,6 +3,9 @@
 //! exactly like a missing one, so ids cannot be probed.
 
 use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::OwnedSemaphorePermit;
 
 use super::error::{Fault, JobsError, ListError};
 use super::lifecycle::Jobs;
@@ -10,6 +13,9 @@ use crate::service::job::{JobId, Status};
 use crate::service::keys::Owner;
 use crate::service::results::{self, Format};
 use crate::service::store::{JobRow, StoredFrame};
+
+/// Longest wait for a download's turn before `429`.
+const DOWNLOAD_WAIT: Duration = Duration::from_secs(10);
 
 /// Which jobs a listing shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,24 +122,36 @@ impl Jobs {
         .await
     }
 
-    /// The stored animation of an ended job in `format`, with the job.
+    /// The stored animation of an ended job in `format`, with the job and
+    /// the download turn it holds (`--max-downloads`; released when the
+    /// body is sent or dropped). A request waits [`DOWNLOAD_WAIT`] at most
+    /// for its turn; the job is checked before it waits, so a wrong id or
+    /// a running job is answered at once.
     pub async fn download(
         self: &Arc<Self>,
         owner: &Owner,
         id: &str,
         format: Format,
-    ) -> Result<(JobRow, Vec<u8>), JobsError> {
+    ) -> Result<(JobRow, Vec<u8>, OwnedSemaphorePermit), JobsError> {
+        let row = self.get(owner, id).await?;
+        if !row.status.is_terminal() {
+            return Err(JobsError::NotEnded(row.status));
+        }
+        if row.frames_done == 0 {
+            return Err(JobsError::NoFrames);
+        }
+        let turn = Arc::clone(&self.downloads).acquire_owned();
+        let Ok(Ok(turn)) = tokio::time::timeout(DOWNLOAD_WAIT, turn).await else {
+            return Err(JobsError::DownloadsBusy {
+                turns: self.config.max_downloads,
+            });
+        };
         let (owner, id) = (owner.clone(), id.to_owned());
         self.blocking(move |jobs| {
+            // Read again: the job may have been deleted while this waited.
             let row = jobs.visible(&owner, &id)?;
-            if !row.status.is_terminal() {
-                return Err(JobsError::NotEnded(row.status));
-            }
-            if row.frames_done == 0 {
-                return Err(JobsError::NoFrames);
-            }
             let bytes = results::build(&jobs.store, &row, format).map_err(Fault::from)?;
-            Ok((row, bytes))
+            Ok((row, bytes, turn))
         })
         .await
     }
