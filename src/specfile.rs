@@ -335,7 +335,7 @@ mod tests {
             (
                 r#"{"obj": "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"}"#,
                 "obstacles[0].mesh.obj",
-                "degenerate",
+                "no triangle of non-zero area",
             ),
             (r#"{"stl": "%%%"}"#, "obstacles[0].mesh.stl", "base64"),
             (
@@ -346,7 +346,7 @@ mod tests {
             (
                 r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,1]]}"#,
                 "obstacles[0].mesh.triangles",
-                "degenerate",
+                "no triangle of non-zero area",
             ),
             (
                 r#"{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": []}"#,

@@ -6,6 +6,7 @@
 mod load;
 mod normals;
 mod offset;
+mod orient;
 mod polygon;
 mod primitive;
 mod trimesh;

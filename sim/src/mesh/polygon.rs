@@ -180,7 +180,7 @@ mod tests {
     }
 
     /// A degenerate face (all corners on a line) still yields triangles
-    /// (degenerate ones, which the mesh checks then report), never a hang.
+    /// (degenerate ones, which the mesh then leaves out), never a hang.
     #[test]
     fn collinear_corners_fall_back_to_a_fan() {
         let line: Vec<Vec3> = (0..5).map(|k| Vec3::new(k as Real, 0.0, 0.0)).collect();

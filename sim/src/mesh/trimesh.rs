@@ -1,5 +1,6 @@
 //! [`TriMesh`]: vertices and triangles that passed every check.
 
+use super::orient::orient;
 use crate::math::{Real, Vec3};
 
 /// Largest coordinate magnitude a mesh may have, in metres: beyond this a
@@ -15,8 +16,9 @@ const DEGENERATE_AREA: Real = 1.0e-14;
 #[error("{0}")]
 pub struct MeshError(pub String);
 
-/// A triangle mesh with finite vertices, in-range indices and no
-/// degenerate triangles; only [`TriMesh::new`] makes one.
+/// A triangle mesh with finite vertices, in-range indices, no degenerate
+/// triangles and windings that agree (`super::orient`); only
+/// [`TriMesh::new`] makes one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TriMesh {
     vertices: Vec<Vec3>,
@@ -25,7 +27,8 @@ pub struct TriMesh {
 
 impl TriMesh {
     /// Checks and wraps `vertices` and `triangles` (zero-based indices,
-    /// counter-clockwise seen from outside).
+    /// counter-clockwise seen from outside, or made so: triangles of no
+    /// area are left out and windings turned by `super::orient`).
     pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self, MeshError> {
         if vertices.is_empty() {
             return Err(MeshError("has no vertices".into()));
@@ -52,18 +55,35 @@ impl TriMesh {
                 )));
             }
         }
-        let mesh = Self {
+        // A triangle of no area covers nothing and has no normal: left
+        // out, not a reason to refuse the mesh (exporters leave slivers).
+        let mut mesh = Self {
             vertices,
-            triangles,
+            triangles: Vec::new(),
         };
         let (lo, hi) = mesh.bounds();
-        let scale2 = (hi - lo).norm_squared();
-        for k in 0..mesh.triangles.len() {
-            if mesh.double_area(k) <= DEGENERATE_AREA * scale2 {
-                return Err(MeshError(format!(
-                    "triangle {k} is degenerate (zero area or repeated vertices)"
-                )));
-            }
+        let least = DEGENERATE_AREA * (hi - lo).norm_squared();
+        let given = triangles.len();
+        mesh.triangles = triangles
+            .into_iter()
+            .filter(|t| {
+                let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+                (b - a).cross(&(c - a)).norm() > least
+            })
+            .collect();
+        if mesh.triangles.is_empty() {
+            return Err(MeshError(format!(
+                "has no triangle of non-zero area ({given} given)"
+            )));
+        }
+        let turned = orient(&mesh.vertices, &mut mesh.triangles);
+        if mesh.triangles.len() < given || turned.triangles > 0 {
+            tracing::warn!(
+                degenerate = given - mesh.triangles.len(),
+                rewound = turned.triangles,
+                inward_parts = turned.inward_parts,
+                "obstacle mesh repaired: triangles of no area left out, windings made to agree and face outward"
+            );
         }
         Ok(mesh)
     }
@@ -140,15 +160,23 @@ mod tests {
     }
 
     #[test]
+    fn triangles_of_no_area_are_left_out() {
+        let (mut v, _) = tri();
+        v.push(Vec3::x() * 2.0);
+        let m = TriMesh::new(v, vec![[0, 1, 1], [0, 1, 3], [0, 1, 2]]).expect("one is usable");
+        assert_eq!(m.triangles(), &[[0, 1, 2]]);
+    }
+
+    #[test]
     fn refuses_bad_meshes_with_a_message() {
         let msg = |v: Vec<Vec3>, t: Vec<[u32; 3]>| TriMesh::new(v, t).expect_err("refused").0;
         let (v, _) = tri();
         assert!(msg(v.clone(), vec![]).contains("no triangles"));
         assert!(msg(vec![], vec![[0, 1, 2]]).contains("no vertices"));
         assert!(msg(v.clone(), vec![[0, 1, 3]]).contains("out of range"));
-        assert!(msg(v.clone(), vec![[0, 1, 1]]).contains("degenerate"));
+        assert!(msg(v.clone(), vec![[0, 1, 1]]).contains("no triangle of non-zero area"));
         let collinear = vec![Vec3::zeros(), Vec3::x(), Vec3::x() * 2.0];
-        assert!(msg(collinear, vec![[0, 1, 2]]).contains("degenerate"));
+        assert!(msg(collinear, vec![[0, 1, 2]]).contains("no triangle of non-zero area"));
         let mut nan = v.clone();
         nan[1].x = Real::NAN;
         assert!(msg(nan, vec![[0, 1, 2]]).contains("not finite"));
