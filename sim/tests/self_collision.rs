@@ -287,7 +287,8 @@ fn culled_crossing_count_equals_the_full_count_on_a_drape_that_crosses_itself() 
 }
 
 /// The thickness defaults to a tenth of the finer spacing, is stated in
-/// the scene, and a bad one is refused naming `cloth.thickness`.
+/// the scene, and a bad one is refused naming `cloth.thickness`; with
+/// self-collision off, one too thick for the grid is kept unused.
 #[test]
 fn thickness_defaults_from_the_spacing_and_bad_values_are_refused() {
     use drapery_sim::spec::{Limits, Spec};
@@ -322,4 +323,14 @@ fn thickness_defaults_from_the_spacing_and_bad_values_are_refused() {
             "{bad}"
         );
     }
+    // Off, a thickness is kept unused and only its sign checked.
+    let kept = spec(r#", "self_collision": false, "thickness": 0.02"#)
+        .validate(&limits)
+        .expect("valid");
+    assert_eq!(kept.cloth.self_thickness, None);
+    assert!(
+        spec(r#", "self_collision": false, "thickness": -1"#)
+            .validate(&limits)
+            .is_err()
+    );
 }

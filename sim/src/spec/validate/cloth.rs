@@ -130,6 +130,11 @@ fn thickness(cl: &crate::spec::types::ClothSpec, c: &mut Check) -> Option<Option
     if !c.range("cloth.thickness", t, true, f64::INFINITY) {
         return None;
     }
+    // Unused with self-collision off: a spec that turns it off for one
+    // run keeps its thickness for the next.
+    if !cl.self_collision {
+        return Some(None);
+    }
     if spacing.is_finite() && t > most {
         c.fail(
             "cloth.thickness",
@@ -139,5 +144,5 @@ fn thickness(cl: &crate::spec::types::ClothSpec, c: &mut Check) -> Option<Option
         );
         return None;
     }
-    Some(cl.self_collision.then_some(t))
+    Some(Some(t))
 }
