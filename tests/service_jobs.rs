@@ -20,10 +20,17 @@ async fn cancel_a_running_job() {
         .as_str()
         .expect("id")
         .to_owned();
-    wait_for(&s, &id, LONG, |j| {
+    let j = wait_for(&s, &id, LONG, |j| {
         status(j) == "running" && frames_done(j) >= 2
     })
     .await;
+    // A running job shows its time so far, not only once it ends.
+    assert!(
+        j["timings"]["run_seconds"]
+            .as_f64()
+            .is_some_and(|t| t > 0.0),
+        "{j}"
+    );
     let url = s.ws_url(&format!("/v1/jobs/{id}/stream"));
     let watcher = tokio::spawn(async move { read_stream(&url).await });
     let http = client();

@@ -27,7 +27,8 @@ pub struct Timings {
     pub finished_at: Option<String>,
     /// Seconds from submission to the first start.
     pub queued_seconds: Option<f64>,
-    /// Seconds of simulation, over every attempt.
+    /// Seconds of simulation, over every attempt; while the job runs, up
+    /// to its last stored frame.
     pub run_seconds: f64,
     /// Times a worker started the job (more than 1 after a restart).
     pub attempts: u32,

@@ -117,17 +117,19 @@ impl Jobs {
         self.store.frame_stats(id, upto)
     }
 
-    /// Stores a frame (with the checkpoint taken at it, if any), counts it
-    /// and its solver time per step, and tells the job's streams.
+    /// Stores a frame (with the checkpoint taken at it, if any) and the
+    /// job's running time so far, counts the frame and its solver time per
+    /// step, and tells the job's streams.
     pub fn record_frame(
         &self,
         id: JobId,
         frame: &StoredFrame,
         checkpoint: Option<&[u8]>,
         seconds_per_step: Option<f64>,
+        run_seconds: f64,
     ) -> Result<(), StoreError> {
         self.store
-            .put_frame(&self.config.node, id, frame, checkpoint)?;
+            .put_frame(&self.config.node, id, frame, checkpoint, run_seconds)?;
         self.metrics.frames.inc();
         if let Some(s) = seconds_per_step {
             self.metrics.step_seconds.observe(s);

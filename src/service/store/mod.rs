@@ -156,15 +156,19 @@ impl Store {
 
     /// Stores frame `f` of the job node `node` runs (replacing an earlier
     /// copy: a resumed job redoes the frames after its checkpoint,
-    /// identically) and, with it, the checkpoint if one is given.
+    /// identically) and, with it, the checkpoint if one is given and the
+    /// job's `run_seconds` so far over every attempt (so a running job
+    /// shows its time, and a node that dies leaves its attempt's time
+    /// counted up to its last frame).
     pub fn put_frame(
         &self,
         node: &str,
         id: JobId,
         f: &StoredFrame,
         checkpoint: Option<&[u8]>,
+        run_seconds: f64,
     ) -> Result<()> {
-        each!(self, s => s.put_frame(node, id, f, checkpoint))
+        each!(self, s => s.put_frame(node, id, f, checkpoint, run_seconds))
     }
 
     /// Frame `n` of a job.

@@ -87,7 +87,8 @@ pub fn simulate(jobs: &Jobs, attempt: &Attempt) -> Result<Outcome, RunError> {
         };
         disk.add(&frame, checkpoint.as_deref())?;
         let per_step = (stats.steps > 0).then(|| stats.step_seconds / stats.steps as f64);
-        jobs.record_frame(row.id, &frame, checkpoint.as_deref(), per_step)
+        let run_seconds = row.run_seconds + started.elapsed().as_secs_f64();
+        jobs.record_frame(row.id, &frame, checkpoint.as_deref(), per_step, run_seconds)
             .map_err(|e| {
                 lost = is_lost(&e);
                 e.to_string()

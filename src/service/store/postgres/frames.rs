@@ -13,13 +13,15 @@ const WALK_BATCH: i64 = 32;
 const ENDED: &str = "('succeeded', 'failed', 'cancelled')";
 
 impl Postgres {
-    /// Stores frame `f` of the job node `node` runs, with its checkpoint.
+    /// Stores frame `f` of the job node `node` runs, with its checkpoint,
+    /// and the job's running time so far.
     pub fn put_frame(
         &self,
         node: &str,
         id: JobId,
         f: &StoredFrame,
         checkpoint: Option<&[u8]>,
+        run_seconds: f64,
     ) -> Result<()> {
         let key = id.to_string();
         let n = f.n as i64;
@@ -27,9 +29,10 @@ impl Postgres {
             let tx = c.transaction().await?;
             let seq = tx
                 .query_opt(
-                    "UPDATE jobs SET frames_done = GREATEST(frames_done, $3)
+                    "UPDATE jobs SET frames_done = GREATEST(frames_done, $3),
+                         run_seconds = GREATEST(run_seconds, $4)
                      WHERE id = $1 AND node = $2 AND status = 'running' RETURNING seq",
-                    &[&key, &node, &(n + 1)],
+                    &[&key, &node, &(n + 1), &run_seconds],
                 )
                 .await?;
             let Some(seq) = seq.map(|r| r.get::<_, i64>(0)) else {

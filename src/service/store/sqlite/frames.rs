@@ -11,21 +11,23 @@ const SEQ_OF: &str = "(SELECT seq FROM jobs WHERE id = ?1)";
 
 impl Sqlite {
     /// Stores frame `f` of the job node `node` runs, and with it the
-    /// checkpoint if one is given.
+    /// checkpoint if one is given and the job's running time so far.
     pub fn put_frame(
         &self,
         node: &str,
         id: JobId,
         f: &StoredFrame,
         checkpoint: Option<&[u8]>,
+        run_seconds: f64,
     ) -> Result<()> {
         let held = self.write(|c| {
             let tx = c.transaction()?;
             let seq: Option<i64> = tx
                 .query_row(
-                    "UPDATE jobs SET frames_done = MAX(frames_done, ?3)
+                    "UPDATE jobs SET frames_done = MAX(frames_done, ?3),
+                         run_seconds = MAX(run_seconds, ?4)
                      WHERE id = ?1 AND node = ?2 AND status = 'running' RETURNING seq",
-                    params![id, node, f.n as i64 + 1],
+                    params![id, node, f.n as i64 + 1, run_seconds],
                     |r| r.get(0),
                 )
                 .optional()?;
@@ -142,19 +144,20 @@ mod tests {
             let s = Sqlite::open(&dir).expect("opens");
             s.insert_job(&new_job(id, "")).expect("insert");
             assert!(s.claim("n", 10.0).expect("claim").is_some());
-            s.put_frame("n", id, &frame(0), None).expect("frame");
-            s.put_frame("n", id, &frame(1), Some(b"cp1"))
+            s.put_frame("n", id, &frame(0), None, 0.5).expect("frame");
+            s.put_frame("n", id, &frame(1), Some(b"cp1"), 1.5)
                 .expect("frame");
-            // A redone frame replaces its copy and does not move the count back.
-            s.put_frame("n", id, &frame(0), None).expect("frame");
+            // A redone frame replaces its copy and does not move the count
+            // or the running time back.
+            s.put_frame("n", id, &frame(0), None, 1.0).expect("frame");
             assert!(matches!(
-                s.put_frame("other", id, &frame(2), None),
+                s.put_frame("other", id, &frame(2), None, 9.0),
                 Err(StoreError::LeaseLost(_))
             ));
         }
         let s = Sqlite::open(&dir).expect("reopens");
         let row = s.job(id).expect("read").expect("exists");
-        assert_eq!(row.frames_done, 2);
+        assert_eq!((row.frames_done, row.run_seconds), (2, 1.5));
         assert_eq!(
             s.frame(id, 1).expect("read").expect("stored").positions,
             vec![1; 12]
@@ -191,7 +194,7 @@ mod tests {
     fn a_frame_of_an_unknown_job_is_refused() {
         let s = super::super::db::temp_store();
         assert!(
-            s.put_frame("n", JobId::generate(), &frame(0), None)
+            s.put_frame("n", JobId::generate(), &frame(0), None, 0.0)
                 .is_err()
         );
         assert!(s.frame(JobId::generate(), 0).expect("read").is_none());

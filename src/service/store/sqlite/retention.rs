@@ -142,7 +142,8 @@ mod tests {
                 positions: vec![7; 128 << 10],
                 stats: "{}".into(),
             };
-            s.put_frame("n", id, &f, Some(&[1; 1000])).expect("frame");
+            s.put_frame("n", id, &f, Some(&[1; 1000]), 0.0)
+                .expect("frame");
         }
         assert!(s.stored_bytes(id, Some(7)).expect("bytes") >= 8 * (128 << 10));
         assert!(s.stored_bytes(id, None).expect("bytes") < 128 << 10);
