@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use futures_util::StreamExt;
 use serde_json::{Value, json};
 use support::*;
+use tokio_tungstenite::tungstenite::Message;
 
 /// Submitted and streamed at once: hello, then every frame in order as a
 /// stats message and a binary frame, then `done`; frame 0 is the rest
@@ -241,5 +242,64 @@ async fn stream_messages_have_the_documented_shape() {
             serde_json::from_value(message.clone());
         assert!(parsed.is_ok(), "not a StreamMessage: {message}");
     }
+    s.stop().await;
+}
+
+/// A queued job cancelled and then deleted at once (two `DELETE`s) under
+/// a stream that follows it: the stream still ends in order, with
+/// `cancelled` if it saw the cancel, else with a close naming the
+/// deletion, never by dropping the connection.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stream_of_a_job_deleted_under_it_closes_naming_why() {
+    let s = Service::start(&data_dir("deleted"), &["--workers", "1"]).await;
+    let busy = submit(&s, &hanging(30, 30.0)).await["id"]
+        .as_str()
+        .expect("id")
+        .to_owned();
+    wait_for(&s, &busy, Duration::from_secs(60), |j| {
+        status(j) == "running"
+    })
+    .await;
+    let id = submit(&s, &hanging(6, 0.5)).await["id"]
+        .as_str()
+        .expect("id")
+        .to_owned();
+    let url = s.ws_url(&format!("/v1/jobs/{id}/stream"));
+    let (mut ws, _) = tokio_tungstenite::connect_async(url)
+        .await
+        .expect("connects");
+    let Some(Ok(Message::Text(hello))) = ws.next().await else {
+        panic!("no hello");
+    };
+    assert!(hello.contains("\"hello\""), "{hello}");
+    let http = client();
+    for expect in ["cancelled", "cancelled"] {
+        let r = http
+            .delete(s.url(&format!("/v1/jobs/{id}")))
+            .send()
+            .await
+            .expect("request");
+        assert_eq!(r.status(), 200);
+        assert_eq!(status(&r.json::<Value>().await.expect("JSON")), expect);
+    }
+    let mut end = None;
+    let closed = loop {
+        match ws.next().await {
+            Some(Ok(Message::Text(t))) => end = Some(t.to_string()),
+            Some(Ok(Message::Close(c))) => break c.map(|c| c.reason.to_string()),
+            Some(Ok(_)) => {}
+            other => panic!("the stream ended without a close: {other:?}"),
+        }
+    };
+    match end {
+        Some(t) => assert!(t.contains("\"cancelled\""), "{t}"),
+        None => assert_eq!(closed.as_deref(), Some("the job was deleted")),
+    }
+    let r = http
+        .delete(s.url(&format!("/v1/jobs/{busy}")))
+        .send()
+        .await
+        .expect("request");
+    assert_eq!(r.status(), 200);
     s.stop().await;
 }

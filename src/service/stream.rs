@@ -5,7 +5,7 @@
 //! pacing (a slow client never slows the solver) is the subscription's.
 
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
-use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade, close_code};
 use axum::extract::{Extension, Path, State};
 use axum::http::HeaderMap;
 use axum::response::Response;
@@ -42,7 +42,8 @@ pub struct StreamQuery {
 /// frame a `stats` message followed by a binary frame (frame u32, vertex
 /// count u32, time f64, little-endian; then f32 x, y, z per particle),
 /// then `done`, `failed` or `cancelled`; `interrupted` if the server shuts
-/// down first.
+/// down first; a job deleted before its end (cancelled, then deleted)
+/// closes the stream with code 1000 and the reason `the job was deleted`.
 #[utoipa::path(
     get, path = "/v1/jobs/{id}/stream", tag = "frames",
     params(("id" = String, Path, description = "Job id"), StreamQuery),
@@ -97,9 +98,12 @@ enum StreamError {
 
 /// Sends the whole stream of `sub` over `socket`.
 async fn send(mut socket: WebSocket, mut sub: Subscription) -> Result<(), StreamError> {
-    socket
-        .send(Message::Text(sub.hello().await?.into()))
-        .await?;
+    let hello = match sub.hello().await {
+        Ok(hello) => hello,
+        Err(Fault::Vanished(_)) => return Ok(socket.send(deleted()).await?),
+        Err(e) => return Err(e.into()),
+    };
+    socket.send(Message::Text(hello.into())).await?;
     while let Some(event) = sub.next().await? {
         match event {
             Event::Frame(f) => {
@@ -122,7 +126,18 @@ async fn send(mut socket: WebSocket, mut sub: Subscription) -> Result<(), Stream
                 socket.send(Message::Text(bye.to_json().into())).await?;
                 socket.send(Message::Close(None)).await?;
             }
+            Event::Deleted => socket.send(deleted()).await?,
         }
     }
     Ok(())
+}
+
+/// The close of a stream whose job was deleted before its end: no end
+/// message can be told truly (the job's record is gone), so the close
+/// frame says why the frames stop.
+fn deleted() -> Message {
+    Message::Close(Some(CloseFrame {
+        code: close_code::NORMAL,
+        reason: "the job was deleted".into(),
+    }))
 }

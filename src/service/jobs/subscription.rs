@@ -34,6 +34,9 @@ pub enum Event {
     End(End),
     /// The server is shutting down before the job ended.
     Interrupted,
+    /// The job was deleted (it had ended: cancelled twice, or by
+    /// retention) before every frame was delivered.
+    Deleted,
 }
 
 /// One client's reading of one job.
@@ -91,7 +94,10 @@ impl Subscription {
             let (frames, status) = match self.known {
                 Some(k) => k,
                 None => {
-                    let k = self.news().await?;
+                    let Some(k) = self.news().await? else {
+                        self.finished = true;
+                        return Ok(Some(Event::Deleted));
+                    };
                     self.known = Some(k);
                     k
                 }
@@ -114,19 +120,19 @@ impl Subscription {
         }
     }
 
-    /// What is stored now, and whether more can come.
-    async fn news(&mut self) -> Result<(u64, Status), Fault> {
+    /// What is stored now, and whether more can come; `None` if the job
+    /// is gone.
+    async fn news(&mut self) -> Result<Option<(u64, Status)>, Fault> {
         if let Some(rx) = &mut self.live {
             let l = *rx.borrow_and_update();
-            return Ok((l.frames, l.status));
+            return Ok(Some((l.frames, l.status)));
         }
         let id = self.id;
         let row = self
             .jobs
             .blocking(move |jobs| Ok::<_, Fault>(jobs.store.job(id)?))
-            .await?
-            .ok_or(Fault::Vanished(id))?;
-        Ok((row.frames_done, row.status))
+            .await?;
+        Ok(row.map(|r| (r.frames_done, r.status)))
     }
 
     /// Waits for news of a job that has not ended; `false` when the
