@@ -51,6 +51,7 @@ fn adaptive_steps_keep_their_error_and_tighter_requests_buy_accuracy() {
                     s.local_error <= error * (1.0 + 1e-12),
                     "{integrator} {error}: {s:?}"
                 );
+                assert_eq!(s.error_missed_steps, 0);
             }
             let steps: usize = stats.iter().map(|s| s.steps).sum();
             let truth = common::rms(&frames, &reference);
@@ -110,4 +111,17 @@ fn an_adaptive_bdf2_run_resumes_exactly_from_its_checkpoint() {
         rest == whole[7..],
         "the resumed run parts from the whole one"
     );
+}
+
+/// A request finer than the finest step allowed can meet is not met in
+/// silence: the steps that stayed over their share are counted.
+#[test]
+fn an_error_target_out_of_reach_is_reported() {
+    let json = swing(r#""dt": "adaptive", "error": 1e-13"#, "euler")
+        .replace(r#""duration": 0.5"#, r#""duration": 0.034"#);
+    let (_, stats) = run(&json);
+    let missed: usize = stats.iter().map(|s| s.error_missed_steps).sum();
+    let steps: usize = stats.iter().map(|s| s.steps).sum();
+    assert!(missed > 0 && missed <= steps, "{missed} of {steps}");
+    assert!(stats.iter().any(|s| s.local_error > 1e-13));
 }

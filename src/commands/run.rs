@@ -103,6 +103,12 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
                 stats.max_stretch,
                 args.out.display()
             );
+            if stats.error_missed_steps > 0 {
+                eprintln!(
+                    "warning: {} adaptive steps at the finest size allowed still estimated more error than their share of solver.error; see error_missed_steps in stats.json",
+                    stats.error_missed_steps
+                );
+            }
             Ok(ExitCode::SUCCESS)
         }
         Err(e) => {

@@ -51,6 +51,8 @@ pub struct FrameAccumulator {
     pub energy_subdivided: usize,
     /// Adaptive steps rejected and redone at half size.
     pub rejected: usize,
+    /// Adaptive steps accepted over their error share at the finest size.
+    pub missed: usize,
     /// The steps' local error estimates summed, metres.
     pub error: Real,
     /// Stage times.
@@ -225,6 +227,7 @@ impl Driver<'_> {
             }
             let r = result?;
             acc.add(&r, h);
+            acc.missed += usize::from(r.error > share);
             let level = self.run.level;
             done += 1 << (max_level - level);
             let doubled = r.error * Real::powi(2.0, order);

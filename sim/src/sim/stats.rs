@@ -30,6 +30,11 @@ pub struct FrameStats {
     /// solve, overstretch) and redone at half size.
     #[serde(default)]
     pub rejected_steps: usize,
+    /// Adaptive steps accepted over their share of `solver.error` because
+    /// they were already the finest step allowed (`2^-max_level` of a
+    /// frame): the target is finer than the controller can reach there.
+    #[serde(default)]
+    pub error_missed_steps: usize,
     /// The position error the frame's steps added by their embedded
     /// estimates (RMS over free particles, summed over steps), metres;
     /// `solver.error` bounds it under `dt: "adaptive"`.
@@ -115,6 +120,10 @@ pub struct RunStats {
     pub energy_subdivided_steps: usize,
     /// Adaptive steps rejected and redone at half size.
     pub rejected_steps: usize,
+    /// Adaptive steps over their error share at the finest step allowed
+    /// (`per_frame[].error_missed_steps`): above zero, `solver.error` was
+    /// not met there.
+    pub error_missed_steps: usize,
     /// The largest of the frames' estimated added position errors
     /// (`per_frame[].local_error`), metres.
     pub local_error_max: f64,
@@ -194,6 +203,7 @@ impl StatsRecorder {
                 subdivided_steps: 0,
                 energy_subdivided_steps: 0,
                 rejected_steps: 0,
+                error_missed_steps: 0,
                 local_error_max: 0.0,
                 collision_seconds: 0.0,
                 collision_fraction: 0.0,
@@ -235,6 +245,7 @@ impl StatsRecorder {
         s.subdivided_steps += f.subdivided_steps;
         s.energy_subdivided_steps += f.energy_subdivided_steps;
         s.rejected_steps += f.rejected_steps;
+        s.error_missed_steps += f.error_missed_steps;
         s.local_error_max = s.local_error_max.max(f.local_error);
         s.collision_seconds += f.collision_seconds;
         s.contacts_max = s.contacts_max.max(f.contacts);
