@@ -8,6 +8,19 @@
 //! Inside/outside comes from the angle-weighted pseudo-normal of the
 //! nearest feature (face, edge or vertex; Bærentzen and Aanæs 2005), which
 //! is correct for closed meshes at any query point.
+//!
+//! An open mesh (an edge with one face: a sheet, a bowl, a box without a
+//! lid) encloses nothing, so it is a shell of no thickness with two
+//! sides: its collision surface is the set of points `delta` from it, a
+//! particle may rest on either side, and none is ever inside the sheet
+//! itself. Its offset is traced on both sides (the back one wound the
+//! other way, so its normals leave the sheet too), the continuous test
+//! meets whichever side a path reaches first, and projections and
+//! distances are unsigned: the way out is away from the nearest point of
+//! the sheet, to the side the particle is on. Read as a solid, a sheet's
+//! underside was its inside: cloth swinging under a table top of one
+//! face was thrown up through it, and cloth falling into a box without a
+//! lid was torn (stretch 10.3).
 
 use std::collections::HashMap;
 
@@ -81,6 +94,8 @@ impl Sided {
 pub struct MeshSurface {
     real: Sided,
     offset: Sided,
+    /// A shell's offset on its back (module doc); `None` for a closed mesh.
+    back: Option<Sided>,
     bvh: Bvh,
     delta: Real,
     /// Slack of the front test: a particle left this far behind an offset
@@ -107,12 +122,30 @@ impl MeshSurface {
             .collect();
         let offset_mesh = mesh.with_vertices(moved);
         let faces_of = edge_faces(&mesh);
+        let back_mesh = faces_of.values().any(|f| f.len() == 1).then(|| {
+            let moved = mesh
+                .vertices()
+                .iter()
+                .zip(&normals)
+                .map(|(v, n)| v - n * delta)
+                .collect();
+            mesh.reversed_with_vertices(moved)
+        });
         let boxes: Vec<Aabb> = (0..mesh.triangles().len())
-            .map(|k| Aabb::of_points(mesh.corners(k).iter().chain(offset_mesh.corners(k).iter())))
+            .map(|k| {
+                let back = back_mesh.as_ref().map(|b| b.corners(k));
+                Aabb::of_points(
+                    mesh.corners(k)
+                        .iter()
+                        .chain(offset_mesh.corners(k).iter())
+                        .chain(back.iter().flatten()),
+                )
+            })
             .collect();
         Self {
             real: Sided::new(mesh, &faces_of),
             offset: Sided::new(offset_mesh, &faces_of),
+            back: back_mesh.map(|b| Sided::new(b, &faces_of)),
             bvh: Bvh::build(&boxes),
             delta,
             slack: 1e-3 * delta + 1e-12,
@@ -127,6 +160,37 @@ impl MeshSurface {
     /// The hierarchy (for benchmarks and tests).
     pub fn bvh(&self) -> &Bvh {
         &self.bvh
+    }
+
+    /// Whether the mesh is open, a shell with two sides (module doc).
+    pub fn is_shell(&self) -> bool {
+        self.back.is_some()
+    }
+
+    /// A shell's nearest point of the surface `level` from the sheet, with
+    /// the unsigned distance to it less `level`: the normal leaves the
+    /// sheet toward `p` (the face's own for a point on the sheet).
+    fn shell_nearest(&self, p: &Vec3, level: Real, nodes: &mut u64) -> Projection {
+        let Some((k, d2, visited)) = self.bvh.nearest(p, |k| self.real.nearest_on(k, p).1) else {
+            return Projection {
+                point: *p,
+                normal: Vec3::z(),
+                distance: Real::INFINITY,
+            };
+        };
+        *nodes += visited;
+        let (q, _, pseudo) = self.real.nearest_on(k, p);
+        let d = d2.sqrt();
+        let normal = if d > 1e-12 * (1.0 + p.norm()) {
+            (p - q) / d
+        } else {
+            pseudo
+        };
+        Projection {
+            point: q + normal * level,
+            normal,
+            distance: d - level,
+        }
     }
 
     fn nearest(&self, side: &Sided, p: &Vec3, nodes: &mut u64) -> Projection {
@@ -168,27 +232,35 @@ impl Surface for MeshSurface {
         let mut best: Option<Hit> = None;
         let query = Aabb::of_segment(a, b).grown(self.slack);
         *nodes += self.bvh.query(&query, |k| {
-            let tri = self.offset.mesh.corners(k);
-            let n = self.offset.face[k];
-            if let Some(h) = segment_hit(a, b, &tri, &n, self.slack)
-                && best.is_none_or(|b| h.t < b.t)
-            {
-                best = Some(Hit {
-                    t: h.t,
-                    point: h.point,
-                    normal: n,
-                });
+            for side in std::iter::once(&self.offset).chain(&self.back) {
+                let tri = side.mesh.corners(k);
+                let n = side.face[k];
+                if let Some(h) = segment_hit(a, b, &tri, &n, self.slack)
+                    && best.is_none_or(|b| h.t < b.t)
+                {
+                    best = Some(Hit {
+                        t: h.t,
+                        point: h.point,
+                        normal: n,
+                    });
+                }
             }
         });
         best
     }
 
     fn project(&self, p: &Vec3, nodes: &mut u64) -> Projection {
-        self.nearest(&self.offset, p, nodes)
+        match self.back {
+            None => self.nearest(&self.offset, p, nodes),
+            Some(_) => self.shell_nearest(p, self.delta, nodes),
+        }
     }
 
     fn true_distance(&self, p: &Vec3, nodes: &mut u64) -> Real {
-        self.nearest(&self.real, p, nodes).distance
+        match self.back {
+            None => self.nearest(&self.real, p, nodes).distance,
+            Some(_) => self.shell_nearest(p, 0.0, nodes).distance,
+        }
     }
 }
 
@@ -225,6 +297,33 @@ mod tests {
             );
         }
         assert!(nodes > 0);
+    }
+
+    #[test]
+    fn an_open_sheet_is_a_shell_with_two_sides() {
+        let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+        let v = corners.map(|(x, y)| Vec3::new(x, y, 0.0)).to_vec();
+        let sheet = TriMesh::new(v, vec![[0, 1, 2], [0, 2, 3]]).expect("a sheet");
+        let s = MeshSurface::new(sheet, Some(0.05), 0.1);
+        assert!(s.is_shell());
+        let mut nodes = 0;
+        for side in [1.0, -1.0] {
+            let up = Vec3::z() * side;
+            let far = Vec3::new(0.3, -0.2, 0.5 * side);
+            assert!((s.true_distance(&far, &mut nodes) - 0.5).abs() < 1e-12);
+            // Within the offset on either side: pushed out to that side.
+            let pr = s.project(&Vec3::new(0.3, -0.2, 0.02 * side), &mut nodes);
+            assert!((pr.distance + 0.03).abs() < 1e-12, "{pr:?}");
+            assert!((pr.normal - up).norm() < 1e-12 && (pr.point.z - 0.05 * side).abs() < 1e-12);
+            // A path through the sheet meets the offset on its own side.
+            let h = s.first_hit(&far, &(far - up), &mut nodes).expect("a hit");
+            assert!((h.point.z - 0.05 * side).abs() < 1e-9 && (h.normal - up).norm() < 1e-12);
+        }
+        // Beside the rim and below the sheet: outside, as far as the rim.
+        let beside = Vec3::new(1.3, 0.0, -0.4);
+        assert!((s.true_distance(&beside, &mut nodes) - 0.5).abs() < 1e-12);
+        let closed = tessellate_box(Vec3::zeros(), Vec3::repeat(1.0), 0.5).expect("a box");
+        assert!(!MeshSurface::new(closed, Some(0.05), 0.1).is_shell());
     }
 
     #[test]

@@ -132,6 +132,16 @@ impl TriMesh {
         )
     }
 
+    /// The triangles wound the other way on moved vertices (the back
+    /// offset of a shell); the caller keeps the count.
+    pub fn reversed_with_vertices(&self, vertices: Vec<Vec3>) -> Self {
+        assert_eq!(vertices.len(), self.vertices.len());
+        Self {
+            vertices,
+            triangles: self.triangles.iter().map(|t| [t[0], t[2], t[1]]).collect(),
+        }
+    }
+
     /// The same triangles on moved vertices (the offset surface); the
     /// caller keeps the count.
     pub fn with_vertices(&self, vertices: Vec<Vec3>) -> Self {
