@@ -21,6 +21,9 @@
 //! underside was its inside: cloth swinging under a table top of one
 //! face was thrown up through it, and cloth falling into a box without a
 //! lid was torn (stretch 10.3).
+//!
+//! The choice is the whole mesh's: one open edge makes every part of it a
+//! shell, so a closed body and an open sheet belong in two obstacles.
 
 use std::collections::HashMap;
 
