@@ -34,7 +34,7 @@
 //! lowers it along four).
 
 use super::ccd::{Closest, Kind, Moving, closest};
-use super::impulse::{Hold, Mobility, apply, relative};
+use super::impulse::{Hold, Mobility, apply, relative, stop};
 use super::plan::Plan;
 use super::topology::ClothMesh;
 use crate::math::{Mat3, Real, Vec3};
@@ -159,7 +159,7 @@ impl Scratch {
                 let n = cl.gap.normalize();
                 let vn = relative(u, idx, &cl.c).dot(&n);
                 if vn < 0.0 {
-                    apply(u, idx, &cl.c, &w, &(n * -vn));
+                    stop(u, idx, &cl.c, &w, &(n * -vn));
                     // Grid neighbours meet where the cloth crumples, not
                     // where layers touch: not a self contact to show.
                     if !mesh.grid_neighbours(kind, idx) {
