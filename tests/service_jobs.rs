@@ -244,10 +244,7 @@ async fn results_download_in_three_formats() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn downloads_beyond_the_limit_wait_their_turn() {
     let s = Service::start(&data_dir("turns"), &["--max-downloads", "1"]).await;
-    let id = submit(&s, &hanging(30, 2.0)).await["id"]
-        .as_str()
-        .expect("id")
-        .to_owned();
+    let id = submit_id(&s, &hanging(30, 2.0)).await;
     job_after_done(&s, &id).await;
     let http = client();
     let url = s.url(&format!("/v1/jobs/{id}/result?format=glb"));

@@ -252,18 +252,12 @@ async fn stream_messages_have_the_documented_shape() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_stream_of_a_job_deleted_under_it_closes_naming_why() {
     let s = Service::start(&data_dir("deleted"), &["--workers", "1"]).await;
-    let busy = submit(&s, &hanging(30, 30.0)).await["id"]
-        .as_str()
-        .expect("id")
-        .to_owned();
+    let busy = submit_id(&s, &hanging(30, 30.0)).await;
     wait_for(&s, &busy, Duration::from_secs(60), |j| {
         status(j) == "running"
     })
     .await;
-    let id = submit(&s, &hanging(6, 0.5)).await["id"]
-        .as_str()
-        .expect("id")
-        .to_owned();
+    let id = submit_id(&s, &hanging(6, 0.5)).await;
     let url = s.ws_url(&format!("/v1/jobs/{id}/stream"));
     let (mut ws, _) = tokio_tungstenite::connect_async(url)
         .await

@@ -136,37 +136,18 @@ fn a_cloth_falls_into_a_box_without_a_lid() {
                            [0,4,6],[0,6,2],[1,3,7],[1,7,5]]}}"#
     );
     let frames = run(&scene(&mesh, 0.3, 20));
+    let wall = |axis, at| Rect {
+        axis,
+        at,
+        lo: [-h; 3],
+        hi: [h; 3],
+    };
     let walls = [
-        Rect {
-            axis: 2,
-            at: -h,
-            lo: [-h; 3],
-            hi: [h; 3],
-        },
-        Rect {
-            axis: 0,
-            at: -h,
-            lo: [-h; 3],
-            hi: [h; 3],
-        },
-        Rect {
-            axis: 0,
-            at: h,
-            lo: [-h; 3],
-            hi: [h; 3],
-        },
-        Rect {
-            axis: 1,
-            at: -h,
-            lo: [-h; 3],
-            hi: [h; 3],
-        },
-        Rect {
-            axis: 1,
-            at: h,
-            lo: [-h; 3],
-            hi: [h; 3],
-        },
+        wall(2, -h),
+        wall(0, -h),
+        wall(0, h),
+        wall(1, -h),
+        wall(1, h),
     ];
     assert_eq!(crossings(&frames, &walls), 0);
     // It spans the opening, held by the rims, and sags into it.
