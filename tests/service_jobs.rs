@@ -297,11 +297,6 @@ async fn stopping_the_service_requeues_the_running_job_and_joins_workers() {
     })
     .await;
     assert_eq!(status(&resumed), "running");
-    let r = client()
-        .delete(s.url(&format!("/v1/jobs/{id}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
+    delete_job(&s, &id).await;
     s.stop().await;
 }

@@ -61,13 +61,7 @@ async fn deleting_a_finished_job_removes_it_with_its_frames_and_gives_the_disk_b
     job_after_done(&s, &id).await;
     let full = dir_bytes(&data);
     assert!(full > empty + 1_000_000, "{empty} -> {full}");
-    let r = client()
-        .delete(s.url(&format!("/v1/jobs/{id}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
-    assert_eq!(status(&r.json().await.expect("JSON")), "succeeded");
+    assert_eq!(status(&delete_job(&s, &id).await), "succeeded");
     let after = dir_bytes(&data);
     assert!(
         after + 1_000_000 < full,

@@ -266,15 +266,8 @@ async fn a_stream_of_a_job_deleted_under_it_closes_naming_why() {
         panic!("no hello");
     };
     assert!(hello.contains("\"hello\""), "{hello}");
-    let http = client();
-    for expect in ["cancelled", "cancelled"] {
-        let r = http
-            .delete(s.url(&format!("/v1/jobs/{id}")))
-            .send()
-            .await
-            .expect("request");
-        assert_eq!(r.status(), 200);
-        assert_eq!(status(&r.json::<Value>().await.expect("JSON")), expect);
+    for _ in 0..2 {
+        assert_eq!(status(&delete_job(&s, &id).await), "cancelled");
     }
     let mut end = None;
     let closed = loop {
@@ -289,11 +282,6 @@ async fn a_stream_of_a_job_deleted_under_it_closes_naming_why() {
         Some(t) => assert!(t.contains("\"cancelled\""), "{t}"),
         None => assert_eq!(closed.as_deref(), Some("the job was deleted")),
     }
-    let r = http
-        .delete(s.url(&format!("/v1/jobs/{busy}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
+    delete_job(&s, &busy).await;
     s.stop().await;
 }

@@ -137,6 +137,17 @@ pub async fn read_stream(url: &str) -> Streamed {
     out
 }
 
+/// `DELETE /v1/jobs/{id}` answered `200`: the job as it is then.
+pub async fn delete_job(s: &impl Endpoint, id: &str) -> Value {
+    let r = client()
+        .delete(s.url(&format!("/v1/jobs/{id}")))
+        .send()
+        .await
+        .expect("request");
+    assert_eq!(r.status(), 200);
+    r.json().await.expect("JSON")
+}
+
 /// The `error.code` of an error response.
 pub async fn error_code(r: reqwest::Response) -> String {
     let v: Value = r.json().await.expect("a JSON error body");
