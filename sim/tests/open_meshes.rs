@@ -1,13 +1,15 @@
 //! Open meshes are shells with two sides (`collision::meshsurface`): a
 //! cloth may rest on or hang under a sheet of one face, and fall into a
-//! box without a lid, without being thrown through a face or torn.
+//! box without a lid or a bowl, without being thrown through a face or
+//! torn.
 //!
-//! Both obstacles are made of axis-aligned rectangles, so a crossing is
-//! read from the frames exactly enough: a particle that is over the same
-//! rectangle at two frames in a row, on opposite sides of its plane,
-//! went through it (at 30 frames a second a particle moves a few
-//! centimetres a frame, far less than the rectangles' size).
-
+//! The sheet and the box are made of axis-aligned rectangles and the
+//! bowl's wall lies on a sphere, so a crossing is read from the frames
+//! exactly enough: a particle that is over the same rectangle at two
+//! frames in a row, on opposite sides of its plane (or below the bowl's
+//! rim on opposite sides of its sphere), went through it (at 30 frames a
+//! second a particle moves a few centimetres a frame, far less than the
+//! obstacles' size; the bowl's facets lie within 5 mm of its sphere).
 mod common;
 
 use common::scene_from_json;
