@@ -9,7 +9,8 @@
 //! frames in a row, on opposite sides of its plane (or below the bowl's
 //! rim on opposite sides of its sphere), went through it (at 30 frames a
 //! second a particle moves a few centimetres a frame, far less than the
-//! obstacles' size; the bowl's facets lie within 5 mm of its sphere).
+//! obstacles' size; the bowl's facets lie within 3 mm of its sphere).
+
 mod common;
 
 use common::scene_from_json;
