@@ -14,7 +14,7 @@ use std::time::Instant;
 use anyhow::Context;
 use drapery_sim::export::{Pc2Writer, write_glb, write_obj};
 use drapery_sim::math::Vec3;
-use drapery_sim::sim::{Control, Progress, Simulation};
+use drapery_sim::sim::{Control, Progress};
 use drapery_sim::spec::Limits;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -24,7 +24,7 @@ use crate::specfile;
 /// Runs the job; exit 2 for an invalid spec, 1 for a failed run.
 pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
     let text = super::files::read_spec(&args.spec)?;
-    let scene = match specfile::load(&text, &Limits::default()) {
+    let mut sim = match specfile::load_simulation(&text, &Limits::default()) {
         Ok(s) => s,
         Err(e) => {
             for err in e.errors() {
@@ -33,11 +33,11 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(2));
         }
     };
-    let mut sim = Simulation::new(&scene)?;
+    let frames = sim.scene().frames;
     fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let triangles = sim.grid().triangles();
 
-    let bar = progress_bar(args.quiet, scene.frames as u64);
+    let bar = progress_bar(args.quiet, frames as u64);
     let on_progress = |p: Progress| bar.set_position(p.frame as u64);
     let control = Control {
         cancel: None,
@@ -48,7 +48,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
         args.format,
         &args.out,
         &sim.grid().rest,
-        scene.frames + 1,
+        frames + 1,
         &triangles,
     )?;
     let start = Instant::now();
