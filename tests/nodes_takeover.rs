@@ -9,7 +9,6 @@ mod support;
 
 use std::time::{Duration, Instant};
 
-use serde_json::Value;
 use support::*;
 
 const LONG: Duration = Duration::from_secs(240);
@@ -81,13 +80,7 @@ async fn check_cancel_and_metrics(api: &Server, worker: &Server, name: &str) {
     })
     .await;
     let asked = Instant::now();
-    let r = client()
-        .delete(api.url(&format!("/v1/jobs/{id}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
-    let j: Value = r.json().await.expect("JSON");
+    let j = delete_job(api, &id).await;
     assert_eq!(status(&j), "cancelled", "{j}");
     eprintln!(
         "cancel through the API-only node: {:.2} s",

@@ -34,24 +34,13 @@ async fn cancel_a_running_job() {
     let url = s.ws_url(&format!("/v1/jobs/{id}/stream"));
     let watcher = tokio::spawn(async move { read_stream(&url).await });
     let http = client();
-    let r = http
-        .delete(s.url(&format!("/v1/jobs/{id}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
-    let j: Value = r.json().await.expect("JSON");
+    let j = delete_job(&s, &id).await;
     assert_eq!(status(&j), "cancelled");
     assert!(frames_done(&j) < 901, "it stopped early");
     let got = watcher.await.expect("watcher");
     assert_eq!(got.end["type"], json!("cancelled"));
     assert_eq!(got.frames.len() as u64, frames_done(&j));
-    let again = http
-        .delete(s.url(&format!("/v1/jobs/{id}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(again.status(), 200);
+    delete_job(&s, &id).await;
 
     let quick = submit(&s, &hanging(4, 0.1)).await["id"]
         .as_str()
@@ -60,13 +49,7 @@ async fn cancel_a_running_job() {
     job_after_done(&s, &quick).await;
     // NOTE: this was `409 conflict` ("a finished job cannot be
     // cancelled"); issue 17 makes `DELETE` of an ended job delete it.
-    let r = http
-        .delete(s.url(&format!("/v1/jobs/{quick}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
-    assert_eq!(status(&r.json().await.expect("JSON")), "succeeded");
+    assert_eq!(status(&delete_job(&s, &quick).await), "succeeded");
     let gone = http
         .get(s.url(&format!("/v1/jobs/{quick}")))
         .send()
@@ -126,12 +109,7 @@ async fn full_queue_refuses_with_retry_after_and_list_pages() {
         .expect("request");
     assert_eq!(status(&r.json::<Value>().await.expect("JSON")), "cancelled");
     submit(&s, &hanging(4, 0.1)).await;
-    let r = http
-        .delete(s.url(&format!("/v1/jobs/{a}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 200);
+    delete_job(&s, &a).await;
 
     let metrics = http
         .get(s.url("/metrics"))
