@@ -9,8 +9,7 @@
 //! more faces join nothing, and a part that cannot be oriented (a Möbius
 //! band) keeps the first choice made around it.
 
-use std::collections::HashMap;
-
+use super::normals::faces_by_edge;
 use crate::math::{Real, Vec3};
 
 /// What [`orient`] changed.
@@ -24,16 +23,7 @@ pub struct Turned {
 
 /// Rewinds `triangles` (indices into `vertices`) as the module describes.
 pub fn orient(vertices: &[Vec3], triangles: &mut [[u32; 3]]) -> Turned {
-    let mut faces: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for (k, t) in triangles.iter().enumerate() {
-        for c in 0..3 {
-            let (a, b) = (t[c], t[(c + 1) % 3]);
-            faces
-                .entry((a.min(b), a.max(b)))
-                .or_default()
-                .push(k as u32);
-        }
-    }
+    let faces = faces_by_edge(triangles);
     let mut flip = vec![false; triangles.len()];
     let mut seen = vec![false; triangles.len()];
     let mut turned = Turned::default();
