@@ -3,6 +3,7 @@
 //! primitives tessellated for display and for the mesh pipeline,
 //! angle-weighted vertex normals, and the offset surface.
 
+mod edges;
 mod load;
 mod normals;
 mod offset;

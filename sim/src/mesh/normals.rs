@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 
+use super::edges::faces_by_edge;
 use super::trimesh::TriMesh;
 use crate::math::Vec3;
 
@@ -30,18 +31,6 @@ pub fn angle_weighted_normals(mesh: &TriMesh) -> Vec<Vec3> {
 /// For every edge (as a sorted vertex pair) the faces that use it.
 pub fn edge_faces(mesh: &TriMesh) -> HashMap<(u32, u32), Vec<u32>> {
     faces_by_edge(mesh.triangles())
-}
-
-/// [`edge_faces`] of bare triangles (a mesh still being checked).
-pub(super) fn faces_by_edge(triangles: &[[u32; 3]]) -> HashMap<(u32, u32), Vec<u32>> {
-    let mut map: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for (k, t) in triangles.iter().enumerate() {
-        for c in 0..3 {
-            let (a, b) = (t[c], t[(c + 1) % 3]);
-            map.entry((a.min(b), a.max(b))).or_default().push(k as u32);
-        }
-    }
-    map
 }
 
 #[cfg(test)]

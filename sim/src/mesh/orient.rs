@@ -9,7 +9,7 @@
 //! more faces join nothing, and a part that cannot be oriented (a Möbius
 //! band) keeps the first choice made around it.
 
-use super::normals::faces_by_edge;
+use super::edges::faces_by_edge;
 use crate::math::{Real, Vec3};
 
 /// What [`orient`] changed.
