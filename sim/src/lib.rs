@@ -24,6 +24,7 @@ pub mod selfcollision;
 pub mod sim;
 pub mod solver;
 pub mod spec;
+pub mod subnormals;
 
 #[cfg(test)]
 pub(crate) mod testing;

@@ -282,6 +282,7 @@ fn run_one(s: &Shared, job: &Job, i: usize) {
 /// A helper's life: claim and run indices; idle, spin, yield, then park.
 fn helper(s: &Shared, k: usize) {
     INSIDE.set(true);
+    crate::subnormals::set_for_thread();
     loop {
         let mut since = Instant::now();
         let mut polls = 0u32;

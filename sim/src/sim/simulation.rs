@@ -176,6 +176,7 @@ impl Simulation {
     /// One step of `h` outside the frame loop (benchmarks, tools): pins
     /// held, no subdivision, no frame bookkeeping.
     pub fn step_once(&mut self, h: Real) -> Result<StepReport, SimError> {
+        let _flush = crate::subnormals::Flush::new();
         step(&self.world, &mut self.run, &mut self.ws, h)
     }
 
@@ -191,6 +192,7 @@ impl Simulation {
         control: &Control<'_>,
     ) -> Result<(FrameStats, StageTimes), SimError> {
         let start = Instant::now();
+        let _flush = crate::subnormals::Flush::new();
         let acc = Driver {
             world: &self.world,
             run: &mut self.run,
