@@ -77,7 +77,13 @@ impl Layers {
     ) {
         if !plan.pairs(mesh, (x0, x0), thickness, &mut self.vf, &mut self.ee) {
             mesh.refit(x0, x0, thickness);
-            mesh.feature_pairs(&mut self.vf, &mut self.ee);
+            if !mesh.feature_pairs(&mut self.vf, &mut self.ee) {
+                // Over the budget (`super::budget`): no couplings; the
+                // response after the solve, over the same budget, holds
+                // the cloth still and the step is redone in halves.
+                self.vf.clear();
+                self.ee.clear();
+            }
         }
         // Pieces of fixed length, on the team, joined in order: the same
         // couplings whatever the number of threads.

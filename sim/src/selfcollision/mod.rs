@@ -9,6 +9,7 @@
 //! | `cones` | bounds on a patch's normals over a step: which patches cannot meet themselves |
 //! | `contour` | and whose boundary, projected, stays simple |
 //! | `plan` | one descent at the step's start for every query of the step |
+//! | `budget` | how many candidate pairs a gather may hold |
 //! | `kept` | candidate lists filtered without a branch per candidate |
 //! | `query_boxes` | a query's boxes in single precision, rounded outward |
 //! | `couplings` | layers within the thickness held apart inside the solve |
@@ -24,6 +25,7 @@
 //! correction of the accepted motion (Bridson, Fedkiw & Anderson 2002),
 //! which ends every step without crossings.
 
+mod budget;
 mod ccd;
 mod cones;
 mod contour;

@@ -226,17 +226,21 @@ impl Plan {
                 slack: reach,
             },
         );
-        let pieces = mesh.gather(
+        let budget = mesh.pair_budget;
+        let (pieces, complete) = mesh.gather(
             |m, node, scratch| {
                 cones[node].is_flat()
                     && m.contours
                         .simple(node, cones[node].axis(), &m.edges, &sweep, scratch)
             },
             ClothMesh::feature_body,
+            budget,
         );
         mesh.join(pieces, &mut self.vf, &mut self.ee);
-        self.valid = true;
-        true
+        // A plan over the budget would be no plan's worth: each query
+        // gathers (and is bounded) on its own.
+        self.valid = complete;
+        complete
     }
 
     /// The pairs of `mesh` for the motion from `x0` to `x1` with pad

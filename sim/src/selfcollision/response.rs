@@ -62,6 +62,9 @@ pub struct SelfReport {
     pub zones: usize,
     /// Whether the fail-safe stop was needed.
     pub failsafe: bool,
+    /// Whether a gather passed its budget (`super::budget`), so the
+    /// fail-safe stop held the cloth still without testing its pairs.
+    pub over_budget: bool,
 }
 
 /// Inputs of one resolution.
@@ -100,6 +103,8 @@ pub struct Scratch {
     mobility: Vec<Mobility>,
     /// Whether the last gather took the plan's pairs.
     planned: bool,
+    /// Whether the last gather passed its budget (its lists are partial).
+    over_budget: bool,
 }
 
 impl Scratch {
@@ -138,6 +143,9 @@ impl Scratch {
     ) {
         let before = report.contacts;
         self.proximity(mesh, m, inv_mass, u, report);
+        if report.over_budget {
+            return;
+        }
         // The proximity pass's pairs were gathered with the thickness as
         // pad over the solve's motion: they are every pair the collision
         // test needs if that pass changed no velocity. Otherwise they are
@@ -151,6 +159,9 @@ impl Scratch {
         for _ in 0..COLLISION_SWEEPS {
             if !fresh {
                 self.gather(mesh, m, u, eta);
+                if self.stop_if_over(u, report) {
+                    return;
+                }
             }
             fresh = false;
             let mut touched = std::mem::take(&mut self.touched);
@@ -187,6 +198,9 @@ impl Scratch {
         report: &mut SelfReport,
     ) {
         self.gather(mesh, m, u, m.thickness);
+        if self.stop_if_over(u, report) {
+            return;
+        }
         let lists = [(Kind::VertexFace, &self.vf), (Kind::EdgeEdge, &self.ee)];
         for (kind, pairs) in lists {
             for &(a, b) in pairs.iter() {
@@ -263,10 +277,22 @@ impl Scratch {
         self.planned = m
             .plan
             .pairs(mesh, (m.x0, &self.end), pad, &mut self.vf, &mut self.ee);
+        self.over_budget = false;
         if !self.planned {
             mesh.refit(m.x0, &self.end, pad);
-            mesh.feature_pairs(&mut self.vf, &mut self.ee);
+            self.over_budget = !mesh.feature_pairs(&mut self.vf, &mut self.ee);
         }
+    }
+
+    /// After a gather over its budget: the fail-safe stop, with no pair
+    /// tested (`super::budget`). Returns whether it was.
+    fn stop_if_over(&self, u: &mut [Vec3], report: &mut SelfReport) -> bool {
+        if self.over_budget {
+            report.over_budget = true;
+            report.failsafe = true;
+            u.fill(Vec3::zeros());
+        }
+        self.over_budget
     }
 
     fn end_positions(&mut self, m: &Motion<'_>, u: &[Vec3]) {
@@ -326,6 +352,9 @@ impl Scratch {
         self.zone.extend(0..n as u32);
         for _ in 0..MAX_ZONE_ROUNDS {
             self.gather(mesh, m, u, COLLISION_PAD * m.thickness);
+            if self.stop_if_over(u, report) {
+                return;
+            }
             let mut zone = std::mem::take(&mut self.zone);
             let hits = self.collisions(mesh, m, u, |_, idx, _, _| {
                 for k in 1..4 {

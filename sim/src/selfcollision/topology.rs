@@ -16,6 +16,7 @@
 //! edge–edge and edge–triangle pair, and skips whole patches whose normal
 //! cone shows they cannot meet themselves (`super::cones`).
 
+use super::budget;
 use super::cones::{self, Cone};
 use super::contour::{self, Contours, Sweep};
 use super::geometry::segment_crosses_triangle;
@@ -68,6 +69,8 @@ pub struct ClothMesh {
     /// The last refit's motion.
     x0: Vec<Vec3>,
     x1: Vec<Vec3>,
+    /// Candidate pairs a gather may hold (`super::budget`).
+    pub(super) pair_budget: usize,
 }
 
 impl ClothMesh {
@@ -157,6 +160,7 @@ impl ClothMesh {
             boxes,
             cones: Vec::new(),
             tri_cones: Vec::new(),
+            pair_budget: super::budget::of_particles(x.len()),
         }
     }
 
@@ -224,7 +228,8 @@ impl ClothMesh {
         &mut self,
         flat: impl Fn(&Self, usize, &mut contour::Scratch) -> bool + Sync,
         body: impl Fn(&Self, usize, usize, &mut Lists) + Sync,
-    ) -> Vec<Piece> {
+        budget: usize,
+    ) -> (Vec<Piece>, bool) {
         let mut pieces = std::mem::take(&mut self.pieces);
         let mut seeds = std::mem::take(&mut self.seeds);
         let mut scratch = std::mem::take(&mut self.contour_scratch);
@@ -243,6 +248,7 @@ impl ClothMesh {
             p.lists.second.clear();
         }
         let per = seeds.len().div_ceil(count).max(1);
+        let tally = budget::Tally::new(budget);
         parallel::each(
             pieces.iter_mut().zip(seeds.chunks(per)),
             |(piece, group)| {
@@ -251,19 +257,31 @@ impl ClothMesh {
                     scratch,
                     stack,
                 } = piece;
+                let mut counter = tally.counter();
                 for &seed in group {
+                    if counter.over() {
+                        break;
+                    }
+                    let mut stop = false;
                     this.tri_bvh.self_pairs_under(
                         seed,
                         &mut |node| flat(this, node, scratch),
                         stack,
-                        &mut |s, t| body(this, s, t, lists),
+                        &mut |s, t| {
+                            if !stop {
+                                let before = lists.first.len() + lists.second.len();
+                                body(this, s, t, lists);
+                                let found = lists.first.len() + lists.second.len() - before;
+                                stop = counter.add(found);
+                            }
+                        },
                     );
                 }
             },
         );
         self.seeds = seeds;
         self.contour_scratch = scratch;
-        pieces
+        (pieces, tally.complete())
     }
 
     /// A pair's four particles: a vertex then a triangle's corners, or two
@@ -306,9 +324,14 @@ impl ClothMesh {
     /// overlapping boxes and no shared vertex, once each (first index
     /// smaller), into `ee`: both in the hierarchy's fixed order, less the
     /// pairs inside patches that cannot meet themselves.
-    pub fn feature_pairs(&mut self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) {
-        let pieces = self.gather(|m, node, s| m.flat(true, node, s), Self::feature_body);
+    pub fn feature_pairs(&mut self, vf: &mut Vec<(u32, u32)>, ee: &mut Vec<(u32, u32)>) -> bool {
+        let (pieces, complete) = self.gather(
+            |m, node, s| m.flat(true, node, s),
+            Self::feature_body,
+            self.pair_budget,
+        );
         self.join(pieces, vf, ee);
+        complete
     }
 
     /// The vertex–triangle and edge–edge pairs of the features two
@@ -392,8 +415,9 @@ impl ClothMesh {
                     }
                 }
             },
+            usize::MAX,
         );
-        self.join(pieces, out, &mut Vec::new());
+        self.join(pieces.0, out, &mut Vec::new());
     }
 }
 

@@ -55,7 +55,7 @@ pub struct FrameAccumulator {
     pub missed: usize,
     /// The steps' local error estimates summed, metres.
     pub error: Real,
-    /// Stage times.
+    /// Stage times, of the steps redone too (their work was done).
     pub times: StageTimes,
     /// The last step's size.
     pub last_h: Real,
@@ -143,6 +143,9 @@ impl Driver<'_> {
     /// without obstacles or moving pins gains energy (`super::energy`): a
     /// long step through a fast swing (a free edge whipping round) is
     /// where one implicit step overshoots, and the halves resolve it.
+    /// Also when self-collision's pairs passed their budget
+    /// (`selfcollision::budget`): the halves move the cloth less across
+    /// itself; at the deepest halving the step keeps its fail-safe stop.
     /// Ordinary steps pay one O(springs) check, and BDF2's one energy
     /// evaluation.
     fn guarded_step(
@@ -161,9 +164,11 @@ impl Driver<'_> {
         let r = self.step(h)?;
         let after = stretch.max_ratio(&self.run.state.x);
         let jumped = after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP;
-        let gained = may_halve && !jumped && self.gained_energy(slot);
-        if may_halve && (jumped || gained) {
+        let crowded = r.self_collision.over_budget;
+        let gained = may_halve && !jumped && !crowded && self.gained_energy(slot);
+        if may_halve && (jumped || crowded || gained) {
             self.ws.restore(slot, self.run);
+            acc.times.add(&r.times);
             acc.subdivided += 1;
             acc.energy_subdivided += usize::from(gained);
             self.guarded_step(h / 2.0, depth + 1, acc)?;
@@ -180,8 +185,9 @@ impl Driver<'_> {
     /// error, so the frame's local errors sum to at most `error`.
     ///
     /// A step is redone at half size when its estimate exceeds its share,
-    /// its solve fails, it produces non-finite numbers, or it stretches an
-    /// edge past [`ADAPTIVE_MAX_STRETCH`] (the fail-safes). After
+    /// its solve fails, it produces non-finite numbers, it stretches an
+    /// edge past [`ADAPTIVE_MAX_STRETCH`], or self-collision's pairs
+    /// passed their budget (the fail-safes). After
     /// [`ADAPTIVE_GROW_AFTER`] steps in a row whose estimate says a step
     /// twice as large would pass with room to spare (the estimate scales
     /// as `h^q`, `q` the local order: 2 for backward Euler, 3 for BDF2,
@@ -212,6 +218,7 @@ impl Driver<'_> {
             let ok = match &result {
                 Ok(r) => {
                     r.solve.status == SolveStatus::Converged
+                        && !r.self_collision.over_budget
                         && r.error <= share
                         && self.world.model.stretch.max_ratio(&self.run.state.x)
                             <= ADAPTIVE_MAX_STRETCH
@@ -220,6 +227,9 @@ impl Driver<'_> {
             };
             if !ok && self.run.level < max_level {
                 self.ws.restore(0, self.run);
+                if let Ok(r) = &result {
+                    acc.times.add(&r.times);
+                }
                 self.run.level += 1;
                 self.run.easy_steps = 0;
                 acc.rejected += 1;

@@ -173,7 +173,8 @@ pub struct RunStats {
     pub max_stretch_any_frame: f64,
     /// No NaN or infinity ever appeared.
     pub finite: bool,
-    /// Wall time per stage, seconds.
+    /// Wall time per stage, seconds, steps redone (halved, rejected)
+    /// included.
     pub stage_seconds: StageTimes,
     /// Each frame's statistics.
     pub per_frame: Vec<FrameStats>,
