@@ -107,7 +107,11 @@ impl Drop for Counter<'_> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::{Hold, SelfCollision, topology::ClothMesh};
     use super::*;
+    use crate::math::{Real, Vec3};
+    use crate::solver::ClothState;
+    use rand::{RngExt, SeedableRng, rngs::StdRng};
 
     /// Pieces that add up to the budget complete; one pair more does not,
     /// and a piece stops once the tally passes the budget, not before.
@@ -136,11 +140,6 @@ mod tests {
         assert_eq!(of_particles(10), FLOOR);
         assert_eq!(of_particles(1 << 20), PAIRS_PER_PARTICLE << 20);
     }
-
-    use super::super::{Hold, SelfCollision, topology::ClothMesh};
-    use crate::math::{Real, Vec3};
-    use crate::solver::ClothState;
-    use rand::{RngExt, SeedableRng, rngs::StdRng};
 
     /// A 12² cloth whose particles each move up to five spacings at
     /// random: the motion that crowds a gather.
