@@ -16,6 +16,7 @@
 //! | `ccd` | continuous vertex–face and edge–edge tests |
 //! | `impulse` | a pair's impulse, and how pinned, resting and free particles yield to it |
 //! | `response` | proximity impulses, collision impulses, rigid impact zones |
+//! | `recheck` | whether a change made after the response (the sharp-feature stage's) passes the cloth through itself |
 //! | `crossings` | the exact count of cloth edges through cloth triangles |
 //!
 //! It runs twice a step. Before the solve, layers closer than the
@@ -36,6 +37,7 @@ mod impulse;
 mod kept;
 mod plan;
 mod query_boxes;
+mod recheck;
 mod response;
 mod topology;
 
@@ -180,5 +182,11 @@ impl SelfCollision {
     /// zero whenever the response did its work.
     pub fn crossings(&mut self, x: &[Vec3]) -> usize {
         count_crossings_culled(&mut self.mesh, x)
+    }
+
+    /// Whether moving the cloth from `xa` (where the response left it) to
+    /// `xb` passes it through itself (`recheck`).
+    pub fn crosses_along(&mut self, xa: &[Vec3], xb: &[Vec3]) -> bool {
+        recheck::crosses_along(&mut self.mesh, xa, xb, self.thickness)
     }
 }

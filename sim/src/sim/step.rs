@@ -47,6 +47,10 @@ pub struct StepReport {
     pub error: Real,
     /// What self-collision did.
     pub self_collision: SelfReport,
+    /// Whether the sharp-feature stage's corrections passed the cloth
+    /// through itself (`selfcollision::recheck`): the driver redoes the
+    /// step in halves.
+    pub crossed_after_sharp: bool,
 }
 
 /// Advances `run` by one step of `h`.
@@ -233,16 +237,27 @@ pub fn step(
                         &mut run.contacts,
                     )
                 });
+                let mut crossed_after_sharp = false;
                 if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
                     clock.run(Stage::SharpFeatures, || {
-                        sharp.run(
+                        if ws.self_collision.is_some() {
+                            ws.before_sharp.clone_from(&run.state.x);
+                        }
+                        let report = sharp.run(
                             &frame,
                             obstacles,
                             &ws.step_start.x,
                             &mut run.state,
                             &mut ws.moved,
                             &mut run.contacts,
-                        )
+                        );
+                        if let (Some(cloth), true) = (
+                            &mut ws.self_collision,
+                            report.corrections + report.frozen > 0,
+                        ) {
+                            crossed_after_sharp =
+                                cloth.crosses_along(&ws.before_sharp, &run.state.x);
+                        }
                     });
                 }
                 // BDF2's memory: this step's motion, before the warm start
@@ -259,6 +274,7 @@ pub fn step(
                     solve,
                     error,
                     self_collision,
+                    crossed_after_sharp,
                     times: clock.times(),
                 });
             }

@@ -29,6 +29,9 @@ pub struct Workspace {
     pub energy: EnergyGuard,
     /// Each particle's displacement in the step being taken.
     pub moved: Vec<crate::math::Vec3>,
+    /// The positions the self-collision stage left, before the
+    /// sharp-feature stage's corrections (`selfcollision::recheck`).
+    pub before_sharp: Vec<crate::math::Vec3>,
     /// The cloth's self-collision (`None` when the scene turns it off).
     pub self_collision: Option<SelfCollision>,
     /// The cloth's mesh for the crossing count of every frame when
@@ -68,6 +71,7 @@ impl Workspace {
             rollback: Vec::new(),
             energy: EnergyGuard::default(),
             moved: vec![crate::math::Vec3::zeros(); n],
+            before_sharp: Vec::new(),
             self_collision: world
                 .scene
                 .cloth

@@ -1,0 +1,115 @@
+//! Whether a change made after the self-collision response (the
+//! sharp-feature stage's corrections, `sim::sharp`) passes the cloth
+//! through itself.
+//!
+//! The response leaves the step's end without crossings, and the
+//! sharp-feature stage runs after it, moving cloth particles out of
+//! obstacle edges and corners. Those moves are not tested against the
+//! cloth: on a bed of 40 × 40 needles, a 60² silk dropped at 950 m/s²
+//! at 1/30 s had no crossing after the response and 2–159 after the
+//! corrections, and kept two for good. This test takes the change as a
+//! motion, from the response's end `xa` to the final `xb`, and runs the
+//! continuous vertex–face and edge–edge tests on the features of the
+//! particles it moved; the driver redoes a step that crossed in halves,
+//! whose corrections are smaller. The cost is a refit of the boxes and
+//! a query per triangle the change touched, on steps with corrections
+//! only.
+
+use super::ccd::{Kind, Moving, closest};
+use super::topology::ClothMesh;
+use crate::collision::Aabb;
+use crate::math::{Real, Vec3};
+
+/// Share of the thickness within which features count as meeting: far
+/// below any gap the response leaves, far above round-off.
+const MEET: Real = 1e-3;
+
+/// Whether any feature of a particle moved between `xa` and `xb` meets
+/// another feature sharing no particle with it over the straight paths
+/// between them. Features already within the meeting distance at `xa`
+/// are not judged (no direction to cross along).
+pub fn crosses_along(mesh: &mut ClothMesh, xa: &[Vec3], xb: &[Vec3], thickness: Real) -> bool {
+    let moved: Vec<bool> = xa.iter().zip(xb).map(|(a, b)| a != b).collect();
+    if !moved.contains(&true) {
+        return false;
+    }
+    let eta = MEET * thickness;
+    mesh.refit_boxes(xa, xb, eta);
+    let meets = |kind: Kind, idx: [usize; 4]| {
+        let m = Moving {
+            x: idx.map(|k| xa[k]),
+            d: idx.map(|k| xb[k] - xa[k]),
+        };
+        closest(kind, &m.x).gap.norm() > eta && m.first_contact(kind, eta).is_some()
+    };
+    let mut near = Vec::new();
+    for (s, tri) in mesh.triangles.iter().enumerate() {
+        if !tri.iter().any(|&k| moved[k as usize]) {
+            continue;
+        }
+        near.clear();
+        let bounds: Aabb = mesh.tri_boxes[s];
+        mesh.tri_bvh.query(&bounds, |t| near.push(t));
+        for &t in &near {
+            let other = mesh.triangles[t];
+            if t == s {
+                continue;
+            }
+            let (p, q) = (tri.map(|k| k as usize), other.map(|k| k as usize));
+            for (v, face) in p.iter().map(|&v| (v, q)).chain(q.iter().map(|&v| (v, p))) {
+                if !face.contains(&v) && meets(Kind::VertexFace, [v, face[0], face[1], face[2]]) {
+                    return true;
+                }
+            }
+            for e in [[p[0], p[1]], [p[1], p[2]], [p[2], p[0]]] {
+                for f in [[q[0], q[1]], [q[1], q[2]], [q[2], q[0]]] {
+                    let apart = !f.contains(&e[0]) && !f.contains(&e[1]);
+                    if apart && meets(Kind::EdgeEdge, [e[0], e[1], f[0], f[1]]) {
+                        return true;
+                    }
+                }
+            }
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::crossings::count_crossings;
+    use super::*;
+
+    /// A strip folded back over itself 0.1 spacings above: a change that
+    /// pushes the upper layer's tip through the lower one is caught, one
+    /// that lifts it is not, and neither is no change.
+    #[test]
+    fn a_change_through_the_cloth_is_caught() {
+        let (nu, nv) = (12, 4);
+        let grid = crate::testing::flat_grid(nu, nv, [1.1, 0.3]);
+        let mut mesh = ClothMesh::new(&grid);
+        let s = mesh.spacing;
+        let thickness = 0.1 * s;
+        // Fold about the middle column: the right half lies over the left.
+        let folded: Vec<Vec3> = (0..nu * nv)
+            .map(|k| {
+                let (i, j) = (k % nu, k / nu);
+                let (u, z) = if i < nu / 2 {
+                    (i as Real, 0.0)
+                } else {
+                    ((nu - 1 - i) as Real, 0.3)
+                };
+                Vec3::new(u * s, j as Real * s, z * s)
+            })
+            .collect();
+        assert_eq!(count_crossings(&mut mesh, &folded), 0);
+        assert!(!crosses_along(&mut mesh, &folded, &folded, thickness));
+        let tip = nu - 3 + nv / 2 * nu;
+        let mut through = folded.clone();
+        through[tip].z = -0.3 * s;
+        assert!(count_crossings(&mut mesh, &through) > 0);
+        assert!(crosses_along(&mut mesh, &folded, &through, thickness));
+        let mut lifted = folded.clone();
+        lifted[tip].z = 0.6 * s;
+        assert!(!crosses_along(&mut mesh, &folded, &lifted, thickness));
+    }
+}
