@@ -57,3 +57,28 @@ pub fn flat_grid(nu: usize, nv: usize, size: [crate::math::Real; 2]) -> crate::c
         0.1,
     )
 }
+
+/// A strip of `nu` x `nv` particles `s` apart folded back over itself:
+/// the columns from `nu / 2` on mirrored over the first half, shifted
+/// `shift` spacings along it and lifted `lift` spacings above it.
+#[cfg(test)]
+pub fn folded_strip(
+    nu: usize,
+    nv: usize,
+    s: crate::math::Real,
+    shift: crate::math::Real,
+    lift: crate::math::Real,
+) -> Vec<crate::math::Vec3> {
+    use crate::math::{Real, Vec3};
+    (0..nu * nv)
+        .map(|k| {
+            let (i, j) = (k % nu, k / nu);
+            let (u, z) = if i < nu / 2 {
+                (i as Real, 0.0)
+            } else {
+                ((nu - 1 - i) as Real + shift, lift)
+            };
+            Vec3::new(u, j as Real, z) * s
+        })
+        .collect()
+}

@@ -318,20 +318,15 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(13);
         let mut mesh = ClothMesh::new(&grid);
         let s = mesh.spacing;
-        let x: Vec<Vec3> = (0..nu * nv)
-            .map(|k| {
-                let (i, j) = (k % nu, k / nu);
-                let (u, z) = if i < nu / 2 {
-                    (i as Real, 0.0)
-                } else {
-                    ((nu - 1 - i) as Real + 0.3, 0.1)
-                };
+        let x: Vec<Vec3> = crate::testing::folded_strip(nu, nv, s, 0.3, 0.1)
+            .into_iter()
+            .map(|p| {
                 let jitter = Vec3::new(
                     rng.random_range(-1.0..1.0),
                     rng.random_range(-1.0..1.0),
                     rng.random_range(-1.0..1.0),
                 ) * 0.05;
-                (Vec3::new(u, j as Real, z) + jitter) * s
+                p + jitter * s
             })
             .collect();
         let pad = 0.2 * mesh.spacing;

@@ -79,7 +79,7 @@ mod tests {
     use super::super::crossings::count_crossings;
     use super::*;
 
-    /// A strip folded back over itself 0.1 spacings above: a change that
+    /// A strip folded back over itself 0.3 spacings above: a change that
     /// pushes the upper layer's tip through the lower one is caught, one
     /// that lifts it is not, and neither is no change.
     #[test]
@@ -90,17 +90,7 @@ mod tests {
         let s = mesh.spacing;
         let thickness = 0.1 * s;
         // Fold about the middle column: the right half lies over the left.
-        let folded: Vec<Vec3> = (0..nu * nv)
-            .map(|k| {
-                let (i, j) = (k % nu, k / nu);
-                let (u, z) = if i < nu / 2 {
-                    (i as Real, 0.0)
-                } else {
-                    ((nu - 1 - i) as Real, 0.3)
-                };
-                Vec3::new(u * s, j as Real * s, z * s)
-            })
-            .collect();
+        let folded = crate::testing::folded_strip(nu, nv, s, 0.0, 0.3);
         assert_eq!(count_crossings(&mut mesh, &folded), 0);
         assert!(!crosses_along(&mut mesh, &folded, &folded, thickness));
         let tip = nu - 3 + nv / 2 * nu;
