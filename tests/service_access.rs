@@ -70,12 +70,7 @@ async fn bad_requests_get_the_right_status_and_a_json_error() {
         assert_eq!(r.status(), 404, "{path}");
         assert_eq!(error_code(r).await, "not_found", "{path}");
     }
-    let r = http
-        .delete(s.url(&format!("/v1/jobs/{missing}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(r.status(), 404);
+    assert_eq!(delete(&s, missing).await.status(), 404);
 
     let r = http
         .get(s.url("/v1/jobs?status=done"))

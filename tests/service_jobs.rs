@@ -102,12 +102,7 @@ async fn full_queue_refuses_with_retry_after_and_list_pages() {
     assert_eq!(running["jobs"].as_array().map(Vec::len), Some(1));
 
     // Cancelling the queued job frees its place at once.
-    let r = http
-        .delete(s.url(&format!("/v1/jobs/{b}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(status(&r.json::<Value>().await.expect("JSON")), "cancelled");
+    assert_eq!(status(&delete_job(&s, &b).await), "cancelled");
     submit(&s, &hanging(4, 0.1)).await;
     delete_job(&s, &a).await;
 

@@ -74,12 +74,7 @@ async fn deleting_a_finished_job_removes_it_with_its_frames_and_gives_the_disk_b
     ] {
         assert_eq!(get_status(&s, &path).await, 404, "{path}");
     }
-    let again = client()
-        .delete(s.url(&format!("/v1/jobs/{id}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(again.status(), 404);
+    assert_eq!(delete(&s, &id).await.status(), 404);
     s.stop().await;
 }
 
@@ -120,12 +115,7 @@ async fn retention_deletes_ended_jobs_by_count_and_by_age() {
         .expect("id")
         .to_owned();
     wait_for(&s, &long, LONG, |j| status(j) == "running").await;
-    let r = client()
-        .delete(s.url(&format!("/v1/jobs/{long}")))
-        .send()
-        .await
-        .expect("request");
-    assert_eq!(status(&r.json().await.expect("JSON")), "cancelled");
+    assert_eq!(status(&delete_job(&s, &long).await), "cancelled");
     let start = std::time::Instant::now();
     while get_status(&s, &format!("/v1/jobs/{long}")).await != 404 {
         assert!(
@@ -161,12 +151,7 @@ async fn a_job_cancelled_before_it_ran_stores_no_hello() {
         let job = submit(&s, &big).await;
         assert_eq!(status(&job), "queued");
         last = job["id"].as_str().expect("id").to_owned();
-        let r = client()
-            .delete(s.url(&format!("/v1/jobs/{last}")))
-            .send()
-            .await
-            .expect("request");
-        assert_eq!(status(&r.json().await.expect("JSON")), "cancelled");
+        assert_eq!(status(&delete_job(&s, &last).await), "cancelled");
     }
     let after = dir_bytes(&data);
     assert!(
@@ -176,10 +161,6 @@ async fn a_job_cancelled_before_it_ran_stores_no_hello() {
     let got = read_stream(&s.ws_url(&format!("/v1/jobs/{last}/stream"))).await;
     assert_eq!(got.hello["grid"], json!([1000, 250]));
     assert_eq!(got.end["type"], json!("cancelled"));
-    client()
-        .delete(s.url(&format!("/v1/jobs/{blocker}")))
-        .send()
-        .await
-        .expect("request");
+    delete(&s, &blocker).await;
     s.stop().await;
 }

@@ -137,13 +137,18 @@ pub async fn read_stream(url: &str) -> Streamed {
     out
 }
 
-/// `DELETE /v1/jobs/{id}` answered `200`: the job as it is then.
-pub async fn delete_job(s: &impl Endpoint, id: &str) -> Value {
-    let r = client()
+/// `DELETE /v1/jobs/{id}`, whatever it answers.
+pub async fn delete(s: &impl Endpoint, id: &str) -> reqwest::Response {
+    client()
         .delete(s.url(&format!("/v1/jobs/{id}")))
         .send()
         .await
-        .expect("request");
+        .expect("request")
+}
+
+/// `DELETE /v1/jobs/{id}` answered `200`: the job as it is then.
+pub async fn delete_job(s: &impl Endpoint, id: &str) -> Value {
+    let r = delete(s, id).await;
     assert_eq!(r.status(), 200);
     r.json().await.expect("JSON")
 }
