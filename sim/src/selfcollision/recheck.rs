@@ -27,10 +27,15 @@ const MEET: Real = 1e-3;
 /// Whether any feature of a particle moved between `xa` and `xb` meets
 /// another feature sharing no particle with it over the straight paths
 /// between them. Features already within the meeting distance at `xa`
-/// are not judged (no direction to cross along).
-pub fn crosses_along(mesh: &mut ClothMesh, xa: &[Vec3], xb: &[Vec3], thickness: Real) -> bool {
-    let moved: Vec<bool> = xa.iter().zip(xb).map(|(a, b)| a != b).collect();
-    if !moved.contains(&true) {
+/// are not judged (no direction to cross along). `near` is scratch.
+pub fn crosses_along(
+    mesh: &mut ClothMesh,
+    xa: &[Vec3],
+    xb: &[Vec3],
+    thickness: Real,
+    near: &mut Vec<usize>,
+) -> bool {
+    if xa == xb {
         return false;
     }
     let eta = MEET * thickness;
@@ -42,15 +47,14 @@ pub fn crosses_along(mesh: &mut ClothMesh, xa: &[Vec3], xb: &[Vec3], thickness: 
         };
         closest(kind, &m.x).gap.norm() > eta && m.first_contact(kind, eta).is_some()
     };
-    let mut near = Vec::new();
     for (s, tri) in mesh.triangles.iter().enumerate() {
-        if !tri.iter().any(|&k| moved[k as usize]) {
+        if tri.iter().all(|&k| xa[k as usize] == xb[k as usize]) {
             continue;
         }
         near.clear();
         let bounds: Aabb = mesh.tri_boxes[s];
         mesh.tri_bvh.query(&bounds, |t| near.push(t));
-        for &t in &near {
+        for &t in near.iter() {
             let other = mesh.triangles[t];
             if t == s {
                 continue;
@@ -89,17 +93,24 @@ mod tests {
         let mut mesh = ClothMesh::new(&grid);
         let s = mesh.spacing;
         let thickness = 0.1 * s;
+        let mut near = Vec::new();
         // Fold about the middle column: the right half lies over the left.
         let folded = crate::testing::folded_strip(nu, nv, s, 0.0, 0.3);
         assert_eq!(count_crossings(&mut mesh, &folded), 0);
-        assert!(!crosses_along(&mut mesh, &folded, &folded, thickness));
+        assert!(!crosses_along(
+            &mut mesh, &folded, &folded, thickness, &mut near
+        ));
         let tip = nu - 3 + nv / 2 * nu;
         let mut through = folded.clone();
         through[tip].z = -0.3 * s;
         assert!(count_crossings(&mut mesh, &through) > 0);
-        assert!(crosses_along(&mut mesh, &folded, &through, thickness));
+        assert!(crosses_along(
+            &mut mesh, &folded, &through, thickness, &mut near
+        ));
         let mut lifted = folded.clone();
         lifted[tip].z = 0.6 * s;
-        assert!(!crosses_along(&mut mesh, &folded, &lifted, thickness));
+        assert!(!crosses_along(
+            &mut mesh, &folded, &lifted, thickness, &mut near
+        ));
     }
 }

@@ -166,9 +166,10 @@ impl Driver<'_> {
         let r = self.step(h)?;
         let after = stretch.max_ratio(&self.run.state.x);
         let jumped = after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP;
-        let crowded = r.self_collision.over_budget || r.crossed_after_sharp;
-        let gained = may_halve && !jumped && !crowded && self.gained_energy(slot);
-        if may_halve && (jumped || crowded || gained) {
+        let crowded = r.self_collision.over_budget;
+        let crossed = r.crossed_after_sharp;
+        let gained = may_halve && !jumped && !crowded && !crossed && self.gained_energy(slot);
+        if may_halve && (jumped || crowded || crossed || gained) {
             self.ws.restore(slot, self.run);
             acc.times.add(&r.times);
             acc.subdivided += 1;
