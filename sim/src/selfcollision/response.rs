@@ -101,8 +101,14 @@ pub struct Scratch {
     touched: Vec<bool>,
     /// How each particle yields to an impulse, this resolution.
     mobility: Vec<Mobility>,
-    /// Whether the last gather took the plan's pairs.
+    /// Whether the last gather took a plan's pairs.
     planned: bool,
+    /// The response's own plan, made when the step's does not hold
+    /// (`Plan::for_response`), and the motion it was made for.
+    local: Plan,
+    motion: Vec<Vec3>,
+    /// Gathers of this resolution so far.
+    gathers: usize,
     /// Whether the last gather passed its budget (its lists are partial).
     over_budget: bool,
 }
@@ -116,6 +122,7 @@ impl Scratch {
         self.separation.resize(u.len(), Vec3::zeros());
         self.touched.clear();
         self.touched.resize(u.len(), false);
+        self.gathers = 0;
         // Taken out of the scratch for the passes that borrow it beside
         // `self`, and put back: no allocation per step.
         let mut mobility = std::mem::take(&mut self.mobility);
@@ -271,12 +278,24 @@ impl Scratch {
     }
 
     /// The pairs whose paths under `u` come within `pad`: the step's
-    /// planned ones if the plan holds for this motion (`super::plan`).
+    /// planned ones if the plan holds for this motion (`super::plan`), else
+    /// the response's own plan's; from the second gather of a resolution
+    /// on, that plan is made for this motion if it does not hold. Which
+    /// plan serves changes no pair that acts (`super::plan`).
     fn gather(&mut self, mesh: &mut ClothMesh, m: &Motion<'_>, u: &[Vec3], pad: Real) {
         self.end_positions(m, u);
-        self.planned = m
-            .plan
-            .pairs(mesh, (m.x0, &self.end), pad, &mut self.vf, &mut self.ee);
+        let ends = (m.x0, self.end.as_slice());
+        let (vf, ee) = (&mut self.vf, &mut self.ee);
+        self.planned = m.plan.pairs(mesh, ends, pad, vf, ee)
+            || self.local.pairs(mesh, ends, pad, vf, ee)
+            || (self.gathers > 0 && {
+                self.motion.clear();
+                self.motion
+                    .extend(ends.1.iter().zip(ends.0).map(|(x1, x0)| x1 - x0));
+                self.local.for_response(mesh, m.x0, pad, &self.motion)
+                    && self.local.pairs(mesh, ends, pad, vf, ee)
+            });
+        self.gathers += 1;
         self.over_budget = false;
         if !self.planned {
             mesh.refit(m.x0, &self.end, pad);

@@ -43,6 +43,13 @@
 //! the proximity pass and the collision passes after it then share one
 //! descent, and a collision pass after impulses gets pairs culled for its
 //! own motion, not for the solve's.
+//!
+//! Faster motion than the caps allow leaves the step without a plan, and
+//! each query of the response refits and descends on its own. From its
+//! second query on, the response then plans for itself
+//! ([`Plan::for_response`]): for this step's motion alone, so the caps
+//! can be wider ([`RESPONSE_CAP`]); its first query, often its only one,
+//! pays nothing for it.
 
 use super::cones::{self, Cone};
 use super::contour::Sweep;
@@ -68,6 +75,9 @@ const AHEAD: Real = 4.0;
 /// The bounds' margin over a solve's motion, for its response: the
 /// response's impulses change it by a fraction.
 pub const RESPONSE_GROWTH: Real = 1.25;
+/// The caps, as a share of the spacing, of a plan for one response
+/// ([`Plan::for_response`]).
+pub const RESPONSE_CAP: Real = 0.5;
 /// The bounds' floor, as a share of the pad (a cloth at rest).
 const FLOOR: Real = 0.01;
 /// Planned pairs of each list filtered as one piece of a query
@@ -78,6 +88,15 @@ const FILTER_PIECE: usize = 512;
 /// far above the round-off of a query's box, far below any distance the
 /// response acts on.
 const ROUNDING: Real = 1e-9;
+
+/// How far a plan reaches: `ahead` motions of `growth` times a motion's
+/// extent, each bound capped at `caps` (reach, bend).
+#[derive(Debug, Clone, Copy)]
+struct Bounds {
+    growth: Real,
+    ahead: Real,
+    caps: (Real, Real),
+}
 
 /// The pairs planned at `base` for motions within `reach` and `bend`, and
 /// pads up to `pad`.
@@ -143,6 +162,26 @@ impl Plan {
         }
     }
 
+    /// Plans for the rest of one response when no other plan holds: at the
+    /// step's start `x`, for [`RESPONSE_GROWTH`] times the motion `moved`
+    /// it is resolving (one step, not [`AHEAD`]), with the caps
+    /// [`RESPONSE_CAP`]; no plan past them. Returns whether there is one.
+    pub fn for_response(
+        &mut self,
+        mesh: &mut ClothMesh,
+        x: &[Vec3],
+        pad: Real,
+        moved: &[Vec3],
+    ) -> bool {
+        let cap = RESPONSE_CAP * mesh.spacing;
+        let bounds = Bounds {
+            growth: RESPONSE_GROWTH,
+            ahead: 1.0,
+            caps: (cap, cap),
+        };
+        self.make_bounded(mesh, x, pad, moved, bounds)
+    }
+
     /// Whether there is a plan, made for queries with pads up to `pad`.
     fn serves(&self, pad: Real) -> bool {
         self.valid && pad <= self.pad
@@ -191,19 +230,41 @@ impl Plan {
         motion: &[Vec3],
         growth: Real,
     ) -> bool {
+        let bounds = Bounds {
+            growth,
+            ahead: AHEAD,
+            caps: (REACH_SHARE * mesh.spacing, BEND_SHARE * mesh.spacing),
+        };
+        self.make_bounded(mesh, x, pad, motion, bounds)
+    }
+
+    /// Plans at `x` for motions within `bounds` of `motion`'s extent; no
+    /// plan if one such motion exceeds the caps.
+    fn make_bounded(
+        &mut self,
+        mesh: &mut ClothMesh,
+        x: &[Vec3],
+        pad: Real,
+        motion: &[Vec3],
+        bounds: Bounds,
+    ) -> bool {
+        let Bounds {
+            growth,
+            ahead,
+            caps,
+        } = bounds;
         self.valid = false;
         if motion.len() != x.len() {
             return false;
         }
         let (reach, bend) = extent(motion, &mesh.edges);
         let floor = FLOOR * pad;
-        let caps = (REACH_SHARE * mesh.spacing, BEND_SHARE * mesh.spacing);
         if growth * reach + floor > caps.0 || growth * bend + floor > caps.1 {
             return false;
         }
         let (reach, bend) = (
-            (AHEAD * growth * reach + floor).min(caps.0),
-            (AHEAD * growth * bend + floor).min(caps.1),
+            (ahead * growth * reach + floor).min(caps.0),
+            (ahead * growth * bend + floor).min(caps.1),
         );
         self.base.clear();
         self.base.extend_from_slice(x);
@@ -303,124 +364,4 @@ impl Plan {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use rand::{RngExt, SeedableRng, rngs::StdRng};
-
-    /// A crumpled cloth and random motions within a plan's bounds: the
-    /// plan's pairs for each motion hold every pair a refit over that
-    /// motion finds, and a motion out of bounds is refused.
-    #[test]
-    fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
-        // A strip folded back over itself 0.1 spacings above, jittered.
-        let (nu, nv) = (16, 6);
-        let grid = crate::testing::flat_grid(nu, nv, [1.5, 0.5]);
-        let mut rng = StdRng::seed_from_u64(13);
-        let mut mesh = ClothMesh::new(&grid);
-        let s = mesh.spacing;
-        let x: Vec<Vec3> = crate::testing::folded_strip(nu, nv, s, 0.3, 0.1)
-            .into_iter()
-            .map(|p| {
-                let jitter = Vec3::new(
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                ) * 0.05;
-                p + jitter * s
-            })
-            .collect();
-        let pad = 0.2 * mesh.spacing;
-        let step = 0.003 * mesh.spacing;
-        let last: Vec<Vec3> = (0..x.len())
-            .map(|_| Vec3::new(rng.random_range(-1.0..1.0), 0.0, 0.0) * step)
-            .collect();
-        let mut plan = Plan::default();
-        assert!(plan.make(&mut mesh, &x, pad, &last));
-        let (reach, bend) = (plan.reach, plan.bend);
-        let (mut vf, mut ee, mut vf1, mut ee1) = (vec![], vec![], vec![], vec![]);
-        let mut compared = 0;
-        // Positions within the bounds: a common drift plus a small part
-        // per particle, so neighbours stay within `bend` of each other.
-        let mut near = |drift: Vec3| -> Vec<Vec3> {
-            x.iter()
-                .map(|p| {
-                    let own = Vec3::new(
-                        rng.random_range(-1.0..1.0),
-                        rng.random_range(-1.0..1.0),
-                        rng.random_range(-1.0..1.0),
-                    ) * (0.25 * bend.min(reach));
-                    p + drift * (0.5 * reach) + own
-                })
-                .collect()
-        };
-        for round in 0..20 {
-            // From the plan's base, or (the steps after it) from elsewhere
-            // within the bounds.
-            let x0 = if round % 3 == 0 {
-                x.clone()
-            } else {
-                near(Vec3::new(-0.2, 0.7, 0.3).normalize())
-            };
-            let x1 = near(Vec3::new(0.6, -0.3, 0.5).normalize());
-            let p = if round % 2 == 0 { pad } else { 0.05 * pad };
-            assert!(plan.pairs(&mut mesh, (&x0, &x1), p, &mut vf, &mut ee));
-            mesh.refit(&x0, &x1, p);
-            mesh.feature_pairs(&mut vf1, &mut ee1);
-            for pair in &vf1 {
-                assert!(vf.contains(pair), "vertex-face {pair:?} missing");
-            }
-            for pair in &ee1 {
-                assert!(ee.contains(pair), "edge-edge {pair:?} missing");
-            }
-            compared += vf1.len() + ee1.len();
-        }
-        // A later step near the base, moving slowly, keeps the plan; one
-        // whose next motion could leave the bounds plans again.
-        let later: Vec<Vec3> = x.iter().map(|p| p + Vec3::z() * (0.5 * reach)).collect();
-        let slow: Vec<Vec3> = last.iter().map(|d| d * 0.1).collect();
-        assert!(plan.make(&mut mesh, &later, pad, &slow));
-        assert_eq!((plan.base.as_slice(), plan.reach), (x.as_slice(), reach));
-        let quick: Vec<Vec3> = last.iter().map(|d| d * 4.0).collect();
-        assert!(plan.make(&mut mesh, &later, pad, &quick));
-        assert_eq!(plan.base, later);
-        plan = Plan::default();
-        assert!(plan.make(&mut mesh, &x, pad, &last));
-        assert_eq!(plan.reach, reach);
-        assert!(compared > 100, "only {compared} pairs compared");
-        // Out of bounds: a particle moved by twice the reach.
-        let mut far = x.clone();
-        far[5].z += 2.0 * reach;
-        assert!(!plan.pairs(&mut mesh, (&x, &far), pad, &mut vf, &mut ee));
-        // A larger pad, or another start, is refused too.
-        assert!(!plan.pairs(&mut mesh, (&x, &x), 2.0 * pad, &mut vf, &mut ee));
-        assert!(!plan.pairs(&mut mesh, (&far, &far), pad, &mut vf, &mut ee));
-        // The response covers a motion the plan did not: planned again
-        // around it, its pairs hold a refit's.
-        let moved: Vec<Vec3> = far.iter().zip(&x).map(|(a, b)| a - b).collect();
-        plan.cover(&mut mesh, &x, pad, &moved);
-        assert!(plan.reach >= 2.0 * reach, "planned around the new motion");
-        assert!(plan.pairs(&mut mesh, (&x, &far), pad, &mut vf, &mut ee));
-        mesh.refit(&x, &far, pad);
-        mesh.feature_pairs(&mut vf1, &mut ee1);
-        assert!(vf1.iter().all(|p| vf.contains(p)) && ee1.iter().all(|p| ee.contains(p)));
-        // A motion the plan holds keeps it.
-        let before = plan.reach;
-        let half: Vec<Vec3> = moved.iter().map(|d| d * 0.5).collect();
-        plan.cover(&mut mesh, &x, pad, &half);
-        assert_eq!(plan.reach, before);
-    }
-
-    /// A flat cloth at rest is planned with no pair at all; a motion too
-    /// large is not planned.
-    #[test]
-    fn a_flat_cloth_plans_nothing_and_fast_motion_is_not_planned() {
-        let grid = crate::testing::flat_grid(20, 20, [1.0, 1.0]);
-        let mut mesh = ClothMesh::new(&grid);
-        let rest = vec![Vec3::zeros(); grid.len()];
-        let mut plan = Plan::default();
-        assert!(plan.make(&mut mesh, &grid.rest, 0.005, &rest));
-        assert!(plan.vf.is_empty() && plan.ee.is_empty());
-        let fast = vec![Vec3::new(0.0, 0.0, 0.2 * mesh.spacing); grid.len()];
-        assert!(!plan.make(&mut mesh, &grid.rest, 0.005, &fast));
-    }
-}
+mod tests;
