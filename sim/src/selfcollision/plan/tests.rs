@@ -3,6 +3,28 @@
 use super::*;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 
+/// Asserts that `plan` serves the motion from `x0` to `x1` with pad `pad`
+/// and that its pairs hold every pair a refit over that motion finds;
+/// returns how many the refit found.
+fn holds_a_refit(
+    plan: &Plan,
+    mesh: &mut ClothMesh,
+    (x0, x1): (&[Vec3], &[Vec3]),
+    pad: Real,
+) -> usize {
+    let (mut vf, mut ee, mut vf1, mut ee1) = (vec![], vec![], vec![], vec![]);
+    assert!(plan.pairs(mesh, (x0, x1), pad, &mut vf, &mut ee));
+    mesh.refit(x0, x1, pad);
+    mesh.feature_pairs(&mut vf1, &mut ee1);
+    for pair in &vf1 {
+        assert!(vf.contains(pair), "vertex-face {pair:?} missing");
+    }
+    for pair in &ee1 {
+        assert!(ee.contains(pair), "edge-edge {pair:?} missing");
+    }
+    vf1.len() + ee1.len()
+}
+
 /// A crumpled cloth and random motions within a plan's bounds: the
 /// plan's pairs for each motion hold every pair a refit over that
 /// motion finds, and a motion out of bounds is refused.
@@ -33,7 +55,7 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
     let mut plan = Plan::default();
     assert!(plan.make(&mut mesh, &x, pad, &last));
     let (reach, bend) = (plan.reach, plan.bend);
-    let (mut vf, mut ee, mut vf1, mut ee1) = (vec![], vec![], vec![], vec![]);
+    let (mut vf, mut ee) = (vec![], vec![]);
     let mut compared = 0;
     // Positions within the bounds: a common drift plus a small part
     // per particle, so neighbours stay within `bend` of each other.
@@ -59,16 +81,7 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
         };
         let x1 = near(Vec3::new(0.6, -0.3, 0.5).normalize());
         let p = if round % 2 == 0 { pad } else { 0.05 * pad };
-        assert!(plan.pairs(&mut mesh, (&x0, &x1), p, &mut vf, &mut ee));
-        mesh.refit(&x0, &x1, p);
-        mesh.feature_pairs(&mut vf1, &mut ee1);
-        for pair in &vf1 {
-            assert!(vf.contains(pair), "vertex-face {pair:?} missing");
-        }
-        for pair in &ee1 {
-            assert!(ee.contains(pair), "edge-edge {pair:?} missing");
-        }
-        compared += vf1.len() + ee1.len();
+        compared += holds_a_refit(&plan, &mut mesh, (&x0, &x1), p);
     }
     // A later step near the base, moving slowly, keeps the plan; one
     // whose next motion could leave the bounds plans again.
@@ -95,10 +108,7 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
     let moved: Vec<Vec3> = far.iter().zip(&x).map(|(a, b)| a - b).collect();
     plan.cover(&mut mesh, &x, pad, &moved);
     assert!(plan.reach >= 2.0 * reach, "planned around the new motion");
-    assert!(plan.pairs(&mut mesh, (&x, &far), pad, &mut vf, &mut ee));
-    mesh.refit(&x, &far, pad);
-    mesh.feature_pairs(&mut vf1, &mut ee1);
-    assert!(vf1.iter().all(|p| vf.contains(p)) && ee1.iter().all(|p| ee.contains(p)));
+    holds_a_refit(&plan, &mut mesh, (&x, &far), pad);
     // A motion the plan holds keeps it.
     let before = plan.reach;
     let half: Vec<Vec3> = moved.iter().map(|d| d * 0.5).collect();
@@ -149,7 +159,7 @@ fn a_response_plans_a_motion_too_fast_for_a_step() {
         "too fast for a step"
     );
     assert!(plan.for_response(&mut mesh, &x, pad, &moved));
-    let (mut vf, mut ee, mut vf1, mut ee1) = (vec![], vec![], vec![], vec![]);
+    let (mut vf, mut ee) = (vec![], vec![]);
     let mut compared = 0;
     for round in 0..10 {
         let scale = 0.5 + 0.06 * round as Real;
@@ -159,16 +169,7 @@ fn a_response_plans_a_motion_too_fast_for_a_step() {
             .map(|(p, d)| p + d * scale + jitter(0.005 * s))
             .collect();
         let p = if round % 2 == 0 { pad } else { 0.1 * pad };
-        assert!(plan.pairs(&mut mesh, (&x, &x1), p, &mut vf, &mut ee));
-        mesh.refit(&x, &x1, p);
-        mesh.feature_pairs(&mut vf1, &mut ee1);
-        for pair in &vf1 {
-            assert!(vf.contains(pair), "vertex-face {pair:?} missing");
-        }
-        for pair in &ee1 {
-            assert!(ee.contains(pair), "edge-edge {pair:?} missing");
-        }
-        compared += vf1.len() + ee1.len();
+        compared += holds_a_refit(&plan, &mut mesh, (&x, &x1), p);
     }
     assert!(compared > 100, "only {compared} pairs compared");
     // Twice as far as planned for, and three times the motion: refused.
