@@ -50,9 +50,9 @@ const HELD_WEIGHT: Real = 1e4;
 const COLLISION_PAD: Real = 0.01;
 /// Pairs a particle in a resolution's last gather at most, for the
 /// response to plan for itself (`Plan::for_response`): without this
-/// bound, a 60² silk drape over a small sphere at 1/30 s (pairs near
-/// its budget) took 45.0 s against 35.4 s, and its steps were halved
-/// differently (a planned gather is not held to the budget).
+/// bound, a 60² silk drape over a small sphere at 1/30 s (a cloth thrown
+/// onto itself) took 45.0 s against 35.4 s, and its frames changed
+/// (`super::plan`'s module doc says how they can).
 const LOCAL_PLAN_PAIRS: usize = 1;
 /// Share of the overlap with the thickness recovered per step.
 const REPULSION: Real = 0.1;

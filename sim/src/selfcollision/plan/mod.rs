@@ -52,9 +52,12 @@
 //! ([`Plan::for_response`]): for this step's motion alone, so the caps
 //! can be wider ([`RESPONSE_CAP`]); its first query, often its only one,
 //! pays nothing for it. Where pairs are many (a cloth thrown onto
-//! itself, near its pair budget) it does not: a plan with wider boxes
-//! would hold more still, and whether a gather passes the budget, which
-//! halves the step, would depend on which plan served it.
+//! itself) it does not: a plan with wider boxes holds more still, and
+//! the frames of such a cloth changed (docs/benchmarks.md 1ac). The
+//! argument above covers crossings, not nearness: two features of a
+//! patch culled as flat may come within the contact distance without
+//! crossing, and then which cones culled the patch decides whether they
+//! are tested. A crumpled cloth is where that can happen.
 
 use super::cones::{self, Cone};
 use super::contour::Sweep;
