@@ -110,7 +110,8 @@ pub struct Scratch {
     /// Whether the last gather took a plan's pairs.
     planned: bool,
     /// The response's own plan, made when the step's does not hold
-    /// (`Plan::for_response`), and the motion it was made for.
+    /// (`Plan::for_response`), for this resolution only, and the motion
+    /// it was made for.
     local: Plan,
     motion: Vec<Vec3>,
     /// Gathers of this resolution so far.
@@ -129,6 +130,7 @@ impl Scratch {
         self.touched.clear();
         self.touched.resize(u.len(), false);
         self.gathers = 0;
+        self.local.forget();
         // Taken out of the scratch for the passes that borrow it beside
         // `self`, and put back: no allocation per step.
         let mut mobility = std::mem::take(&mut self.mobility);

@@ -192,6 +192,11 @@ impl Plan {
         self.make_bounded(mesh, x, pad, moved, bounds)
     }
 
+    /// Drops the plan: no query takes its pairs until it is made again.
+    pub fn forget(&mut self) {
+        self.valid = false;
+    }
+
     /// Whether there is a plan, made for queries with pads up to `pad`.
     fn serves(&self, pad: Real) -> bool {
         self.valid && pad <= self.pad
