@@ -77,7 +77,7 @@ pub struct SelfCollision {
     u: Vec<Vec3>,
     u0: Vec<Vec3>,
     /// Scratch of [`SelfCollision::crosses_along`].
-    near: Vec<usize>,
+    recheck: recheck::Scratch,
 }
 
 impl SelfCollision {
@@ -91,7 +91,7 @@ impl SelfCollision {
             thickness,
             u: Vec::new(),
             u0: Vec::new(),
-            near: Vec::new(),
+            recheck: recheck::Scratch::default(),
         }
     }
 
@@ -190,6 +190,6 @@ impl SelfCollision {
     /// Whether moving the cloth from `xa` (where the response left it) to
     /// `xb` passes it through itself (`recheck`).
     pub fn crosses_along(&mut self, xa: &[Vec3], xb: &[Vec3]) -> bool {
-        recheck::crosses_along(&mut self.mesh, xa, xb, self.thickness, &mut self.near)
+        recheck::crosses_along(&mut self.mesh, xa, xb, self.thickness, &mut self.recheck)
     }
 }

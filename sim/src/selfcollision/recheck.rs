@@ -16,7 +16,7 @@
 //! only.
 
 use super::ccd::{Kind, Moving, closest};
-use super::topology::ClothMesh;
+use super::topology::{ClothMesh, Lists};
 use crate::collision::Aabb;
 use crate::math::{Real, Vec3};
 
@@ -24,29 +24,42 @@ use crate::math::{Real, Vec3};
 /// below any gap the response leaves, far above round-off.
 const MEET: Real = 1e-3;
 
+/// The buffers of [`crosses_along`], reused across steps.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    near: Vec<usize>,
+    pairs: Lists,
+}
+
 /// Whether any feature of a particle moved between `xa` and `xb` meets
 /// another feature sharing no particle with it over the straight paths
 /// between them. Features already within the meeting distance at `xa`
-/// are not judged (no direction to cross along). `near` is scratch.
+/// are not judged (no direction to cross along). The pairs tested are
+/// the gathers' own (`ClothMesh::feature_body`, with boxes over this
+/// motion) between each triangle with a moved corner and the triangles
+/// near it: a moved feature's owner has a moved corner, and every pair
+/// holding an unmoved feature and a moved one is listed from one side.
 pub fn crosses_along(
     mesh: &mut ClothMesh,
     xa: &[Vec3],
     xb: &[Vec3],
     thickness: Real,
-    near: &mut Vec<usize>,
+    scratch: &mut Scratch,
 ) -> bool {
     if xa == xb {
         return false;
     }
     let eta = MEET * thickness;
     mesh.refit_boxes(xa, xb, eta);
-    let meets = |kind: Kind, idx: [usize; 4]| {
+    let meets = |kind: Kind, (a, b): (u32, u32)| {
+        let idx = mesh.particles(kind, a, b);
         let m = Moving {
             x: idx.map(|k| xa[k]),
             d: idx.map(|k| xb[k] - xa[k]),
         };
         closest(kind, &m.x).gap.norm() > eta && m.first_contact(kind, eta).is_some()
     };
+    let Scratch { near, pairs } = scratch;
     for (s, tri) in mesh.triangles.iter().enumerate() {
         if tri.iter().all(|&k| xa[k as usize] == xb[k as usize]) {
             continue;
@@ -54,24 +67,14 @@ pub fn crosses_along(
         near.clear();
         let bounds: Aabb = mesh.tri_boxes[s];
         mesh.tri_bvh.query(&bounds, |t| near.push(t));
-        for &t in near.iter() {
-            let other = mesh.triangles[t];
-            if t == s {
-                continue;
-            }
-            let (p, q) = (tri.map(|k| k as usize), other.map(|k| k as usize));
-            for (v, face) in p.iter().map(|&v| (v, q)).chain(q.iter().map(|&v| (v, p))) {
-                if !face.contains(&v) && meets(Kind::VertexFace, [v, face[0], face[1], face[2]]) {
-                    return true;
-                }
-            }
-            for e in [[p[0], p[1]], [p[1], p[2]], [p[2], p[0]]] {
-                for f in [[q[0], q[1]], [q[1], q[2]], [q[2], q[0]]] {
-                    let apart = !f.contains(&e[0]) && !f.contains(&e[1]);
-                    if apart && meets(Kind::EdgeEdge, [e[0], e[1], f[0], f[1]]) {
-                        return true;
-                    }
-                }
+        for &t in near.iter().filter(|&&t| t != s) {
+            pairs.first.clear();
+            pairs.second.clear();
+            mesh.feature_body(s, t, pairs);
+            if pairs.first.iter().any(|&p| meets(Kind::VertexFace, p))
+                || pairs.second.iter().any(|&p| meets(Kind::EdgeEdge, p))
+            {
+                return true;
             }
         }
     }
@@ -93,7 +96,7 @@ mod tests {
         let mut mesh = ClothMesh::new(&grid);
         let s = mesh.spacing;
         let thickness = 0.1 * s;
-        let mut near = Vec::new();
+        let mut near = Scratch::default();
         // Fold about the middle column: the right half lies over the left.
         let folded = crate::testing::folded_strip(nu, nv, s, 0.0, 0.3);
         assert_eq!(count_crossings(&mut mesh, &folded), 0);
