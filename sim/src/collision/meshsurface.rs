@@ -55,6 +55,16 @@ impl Sided {
             .map(|k| mesh.face_normal(k))
             .collect();
         let vertex = angle_weighted_normals(&mesh);
+        // Each edge's sum once, then looked up per face: summed per face
+        // instead, an edge of `m` faces cost `m²` (a mesh of 100,000 copies
+        // of one triangle took 56 s to load).
+        let sums: HashMap<(u32, u32), Option<Vec3>> = faces_of
+            .iter()
+            .map(|(&key, faces)| {
+                let sum: Vec3 = faces.iter().map(|&f| face[f as usize]).sum();
+                (key, sum.try_normalize(0.0))
+            })
+            .collect();
         let edge = mesh
             .triangles()
             .iter()
@@ -62,11 +72,7 @@ impl Sided {
             .map(|(k, t)| {
                 std::array::from_fn(|c| {
                     let (a, b) = (t[c], t[(c + 1) % 3]);
-                    let sum: Vec3 = faces_of[&(a.min(b), a.max(b))]
-                        .iter()
-                        .map(|&f| face[f as usize])
-                        .sum();
-                    sum.try_normalize(0.0).unwrap_or(face[k])
+                    sums[&(a.min(b), a.max(b))].unwrap_or(face[k])
                 })
             })
             .collect();
