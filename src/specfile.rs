@@ -264,6 +264,18 @@ mod tests {
         assert_eq!(e[0].path, "material.stretch", "{e:?}");
     }
 
+    /// Gravity is an acceleration: however large a component, the error
+    /// is its magnitude's, in m/s², never a coordinate's bound in metres.
+    #[test]
+    fn gravity_too_strong_is_named_as_an_acceleration() {
+        for g in ["[0, 0, -5000]", "[0, 0, -1e30]"] {
+            let e = errors(&OK.replace(r#""duration""#, &format!(r#""gravity": {g}, "duration""#)));
+            assert_eq!(e.len(), 1, "{g}: {e:?}");
+            assert_eq!(e[0].path, "gravity", "{g}: {e:?}");
+            assert!(e[0].message.contains("m/s²"), "{g}: {e:?}");
+        }
+    }
+
     #[test]
     fn every_rule_violation_is_reported_with_its_path() {
         let bad = r#"{"cloth": {"grid": [1, 3], "size": [0, 1], "pinned": [[5, 0]]},

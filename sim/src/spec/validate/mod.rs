@@ -11,6 +11,7 @@ use super::error::SpecErrors;
 use super::limits::Limits;
 use super::scene::Scene;
 use super::types::Spec;
+use crate::math::Vec3;
 use check::Check;
 
 impl Spec {
@@ -25,12 +26,21 @@ impl Spec {
         }
         let cloth = cloth::validate_cloth(self, limits, &mut c);
         let material = material::validate_material(&self.material, &mut c);
-        let gravity = c.point("gravity", self.gravity);
-        if let Some(g) = gravity
-            && g.norm() > 1000.0
-        {
-            c.fail("gravity", "must have magnitude <= 1000 m/s²");
+        // An acceleration, not a place: bounded by its magnitude alone (a
+        // component past the coordinates' bound in metres was named so).
+        let mut finite = true;
+        for (k, &x) in self.gravity.iter().enumerate() {
+            finite &= c.finite(&format!("gravity[{k}]"), x);
         }
+        let g = Vec3::from(self.gravity);
+        let gravity = if !finite {
+            None
+        } else if g.norm() > 1000.0 {
+            c.fail("gravity", "must have magnitude <= 1000 m/s²");
+            None
+        } else {
+            Some(g)
+        };
         for (k, o) in self.obstacles.iter().enumerate() {
             obstacle::validate_obstacle(&format!("obstacles[{k}]"), o, limits, &mut c);
         }
