@@ -37,12 +37,23 @@ pub struct RunState {
     pub(crate) level: u32,
     /// ...and the run of easy steps at it.
     pub(crate) easy_steps: u32,
-    /// The last accepted step's displacement of each particle...
+    /// The last accepted step's displacement of each particle (what the
+    /// next step's self-collision plan reckons with)...
     #[serde(default)]
     pub(crate) last_moved: Vec<Vec3>,
     /// ...its velocity change...
     #[serde(default)]
     pub(crate) last_dv: Vec<Vec3>,
+    /// ...BDF2's memory of each particle's `x0 - x_prev`: the last step's
+    /// displacement as its solve left it, before the self-collision
+    /// response and the sharp-feature stage corrected it. Their jumps are
+    /// no smooth path's: carried on, a third of each (at a constant step)
+    /// was repeated in the next step, into the layer or feature that had
+    /// stopped it (ARCHITECTURE.md, "The time scheme"). Empty under
+    /// backward Euler, and in checkpoints from before it was kept, from
+    /// which a BDF2 run restarts by backward Euler...
+    #[serde(default)]
+    pub(crate) last_dx: Vec<Vec3>,
     /// ...and its size (0 before the first step, or after the cloth was
     /// replaced): BDF2's memory.
     #[serde(default)]
@@ -72,6 +83,7 @@ impl Clone for RunState {
             easy_steps: self.easy_steps,
             last_moved: self.last_moved.clone(),
             last_dv: self.last_dv.clone(),
+            last_dx: self.last_dx.clone(),
             last_h: self.last_h,
             last_error: self.last_error,
         }
@@ -88,6 +100,7 @@ impl Clone for RunState {
         self.easy_steps = source.easy_steps;
         self.last_moved.clone_from(&source.last_moved);
         self.last_dv.clone_from(&source.last_dv);
+        self.last_dx.clone_from(&source.last_dx);
         self.last_h = source.last_h;
         self.last_error = source.last_error;
     }
@@ -119,6 +132,7 @@ impl RunState {
             easy_steps: 0,
             last_moved: vec![Vec3::zeros(); n],
             last_dv: vec![Vec3::zeros(); n],
+            last_dx: Vec::new(),
             last_h: 0.0,
             last_error: 0.0,
         }
@@ -181,7 +195,10 @@ impl RunState {
             return bad("holds a contact with an unknown particle or obstacle".into());
         }
         let history = self.last_h == 0.0
-            || (self.last_moved.len() == n && self.last_dv.len() == n && self.last_h > 0.0);
+            || (self.last_moved.len() == n
+                && self.last_dv.len() == n
+                && (self.last_dx.is_empty() || self.last_dx.len() == n)
+                && self.last_h > 0.0);
         if !history {
             return bad("holds a last step of another size".into());
         }
@@ -191,6 +208,7 @@ impl RunState {
             && finite(&self.warm_start)
             && finite(&self.last_moved)
             && finite(&self.last_dv)
+            && finite(&self.last_dx)
             && self.last_h.is_finite()
             && self.last_error.is_finite())
         {

@@ -64,7 +64,12 @@ pub fn step(
     let physics = world.physics();
     let scheme = match world.scene.solver.integrator {
         IntegratorKind::Euler => Scheme::euler(h),
-        IntegratorKind::Bdf2 => Scheme::bdf2(h, run.last_h, &run.last_moved, &run.last_dv),
+        IntegratorKind::Bdf2 if run.last_dx.len() == run.state.x.len() => {
+            Scheme::bdf2(h, run.last_h, &run.last_dx, &run.last_dv)
+        }
+        // No memory (the first step, or a checkpoint from before it was
+        // kept): a restart.
+        IntegratorKind::Bdf2 => Scheme::euler(h),
     };
     let frame = StepFrame {
         mass: &world.grid.mass,
@@ -218,6 +223,12 @@ pub fn step(
                     &ws.moved,
                     &ws.constraints,
                 );
+                // BDF2's memory of the displacement: the solve's, before the
+                // stages below correct it (`RunState::last_dx`).
+                let bdf2 = world.scene.solver.integrator == IntegratorKind::Bdf2;
+                if bdf2 {
+                    ws.solved.clone_from(&ws.moved);
+                }
                 let self_collision = clock.run(Stage::SelfCollision, || {
                     let Some(cloth) = &mut ws.self_collision else {
                         return SelfReport::default();
@@ -260,10 +271,16 @@ pub fn step(
                         }
                     });
                 }
-                // BDF2's memory: this step's motion, before the warm start
-                // is corrected below.
+                // The step's motion (the next step's plan), and BDF2's
+                // memory of the velocity change, before the warm start is
+                // corrected below.
                 run.last_moved.clone_from(&ws.moved);
                 run.last_dv.clone_from(&run.warm_start);
+                if bdf2 {
+                    std::mem::swap(&mut run.last_dx, &mut ws.solved);
+                } else {
+                    run.last_dx.clear();
+                }
                 run.last_h = h;
                 run.last_error = error;
                 for &(i, dv) in ws.collision.released() {

@@ -29,6 +29,10 @@ pub struct Workspace {
     pub energy: EnergyGuard,
     /// Each particle's displacement in the step being taken.
     pub moved: Vec<crate::math::Vec3>,
+    /// Each particle's displacement as the solve left it, before the
+    /// self-collision and sharp-feature stages corrected it: BDF2's
+    /// memory (`RunState::last_dx`).
+    pub solved: Vec<crate::math::Vec3>,
     /// The positions the self-collision stage left, before the
     /// sharp-feature stage's corrections (`selfcollision::recheck`).
     pub before_sharp: Vec<crate::math::Vec3>,
@@ -71,6 +75,7 @@ impl Workspace {
             rollback: Vec::new(),
             energy: EnergyGuard::default(),
             moved: vec![crate::math::Vec3::zeros(); n],
+            solved: Vec::new(),
             before_sharp: Vec::new(),
             self_collision: world
                 .scene
