@@ -179,6 +179,22 @@ pub fn sum(n: usize, f: impl Fn(Range<usize>) -> Real + Sync) -> Real {
     partials.into_iter().sum()
 }
 
+/// [`sum`] of values of any type that adds (a vector, a matrix): the same
+/// fixed chunks, partials added in chunk order from `zero`.
+pub fn sum_of<T>(n: usize, zero: T, f: impl Fn(Range<usize>) -> T + Sync) -> T
+where
+    T: Copy + Send + std::ops::Add<Output = T>,
+{
+    let chunks = n.div_ceil(CHUNK);
+    let range = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(n);
+    if piece_len(n, PARALLEL_MIN).is_none() {
+        return (0..chunks).map(|c| f(range(c))).fold(zero, |a, b| a + b);
+    }
+    let mut partials = vec![zero; chunks];
+    for_rows(&mut partials, 1, 2, |c, p| p[0] = f(range(c)));
+    partials.into_iter().fold(zero, |a, b| a + b)
+}
+
 /// `Σ f(start, chunk)` over the chunks of `out` that [`sum`] would cut,
 /// partials added in order, where `f` may also write its chunk: an update
 /// and a sum of it in one pass, bit for bit the two passes' results.

@@ -239,6 +239,17 @@ pub fn mul_add(remote: &[Remote], v: &[Vec3], out: &mut [Vec3]) {
     }
 }
 
+/// `Σ S_k (coef n nᵀ) S_l` over the remote blocks, with `filter(k, v)`
+/// giving `S_k v`: their share of the filtered operator's action between
+/// rigid translations (`mpcg::translation`).
+pub fn translation_block(remote: &[Remote], filter: impl Fn(usize, &Vec3) -> Vec3) -> Mat3 {
+    remote.iter().fold(Mat3::zeros(), |e, r| {
+        let row = filter(r.row as usize, &r.normal);
+        let col = filter(r.col as usize, &r.normal);
+        e + row * col.transpose() * r.coef
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

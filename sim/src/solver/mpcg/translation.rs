@@ -1,0 +1,203 @@
+//! The error rule's check along the cloth's rigid translations: a lower
+//! bound of the error that the rule's two estimates cannot see, and the
+//! coarse correction that removes it.
+//!
+//! Both estimates of `mod.rs` know only the modes CG's Krylov space has
+//! found. A rigid translation of the free particles is barely stretched,
+//! so under a block-diagonal or line preconditioner its eigenvalue is
+//! about `m / (m + h² k)`: for a very stiff, light cloth (stretch and
+//! shear 10⁹, 0.1 kg/m², 1/120 s) about 10⁻⁹, which tens of iterations
+//! do not find. After such a cloth struck a sphere the solves stopped
+//! with the whole cloth's velocity some 70 m/s off, the step terms
+//! estimating a 500th of the error; the next step's warm start carried
+//! it on, and the cloth flew off at 8,000 m/s² (docs/benchmarks.md, 1ae).
+//!
+//! The residual's net force tells. For `Z` the filtered translations
+//! `S [e_x e_y e_z]` and `E = Zᵀ (A + R) Z`, `A⁻¹ ⪰ Z E⁻¹ Zᵀ` (the
+//! A-orthogonal projection on `Z`'s span), so
+//!
+//! ```text
+//! |e|²_A = rᵀ (A + R)⁻¹ r ≥ (Zᵀ r)ᵀ E⁻¹ (Zᵀ r),   Zᵀ r = Σ_i r_i
+//! ```
+//!
+//! (the residual is filtered already). When a stop is due and this bound
+//! alone breaks the rule's bound, the solve takes the Galerkin correction
+//! `dv += Z E⁻¹ Zᵀ r` — the best translation in the energy norm, after
+//! which `Zᵀ r = 0` — and restarts CG from there. Where the preconditioner
+//! handles translations, the check never fires: on sphere-drape-30 the
+//! bound is at most a fortieth of what it would need.
+
+use super::super::bsr::BlockCsr;
+use super::super::constraints::Filter;
+use super::super::coupling::{self, Remote};
+use crate::math::{Mat3, Real, Vec3};
+use crate::parallel;
+
+/// `E⁻¹` of one solve, built at its first check (`A`, the couplings and
+/// the filters do not change within a solve).
+#[derive(Debug, Clone, Default)]
+pub struct Translation {
+    inverse: Option<Mat3>,
+}
+
+impl Translation {
+    /// Forgets the last solve's operator.
+    pub fn clear(&mut self) {
+        self.inverse = None;
+    }
+
+    /// The correction `E⁻¹ Zᵀ r` if the lower bound `(Zᵀ r)ᵀ E⁻¹ (Zᵀ r)`
+    /// of `|e|²_A` exceeds `allowed`; `None` if the stop may stand. `a`,
+    /// `remote` and `filter` are the solve's (`super::Problem`).
+    pub fn correction(
+        &mut self,
+        (a, remote, filter): (&BlockCsr, &[Remote], &[Filter]),
+        r: &[Vec3],
+        allowed: Real,
+    ) -> Option<Vec3> {
+        let net = parallel::sum_of(r.len(), Vec3::zeros(), |range| {
+            r[range].iter().fold(Vec3::zeros(), |s, r| s + r)
+        });
+        if net == Vec3::zeros() {
+            return None;
+        }
+        let inverse = *self
+            .inverse
+            .get_or_insert_with(|| pseudo_inverse(&operator(a, remote, filter)));
+        let c = inverse * net;
+        (net.dot(&c) > allowed).then_some(c)
+    }
+}
+
+/// `E = Zᵀ (A + R) Z = Σ_ij S_i A_ij S_j + Σ_remote S_k (coef n nᵀ) S_l`:
+/// the sum of every block of `A`, corrected where a filter is not the
+/// identity (`A` is symmetric: the blocks of a constrained particle's
+/// column are its row's, transposed).
+fn operator(a: &BlockCsr, remote: &[Remote], filter: &[Filter]) -> Mat3 {
+    let values = &a.values;
+    let all = parallel::sum_of(values.len(), Mat3::zeros(), |range| {
+        // PERF: four sums side by side, so the additions do not wait on
+        // each other.
+        let blocks = &values[range];
+        let mut lanes = [Mat3::zeros(); 4];
+        let mut quads = blocks.chunks_exact(4);
+        for quad in &mut quads {
+            for (lane, b) in lanes.iter_mut().zip(quad) {
+                *lane += b;
+            }
+        }
+        let rest = quads.remainder().iter().fold(Mat3::zeros(), |e, b| e + b);
+        lanes.iter().fold(rest, |e, lane| e + lane)
+    });
+    let mut correction = Mat3::zeros();
+    for (j, f) in filter
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| **f != Filter::Free)
+    {
+        for (k, b) in a.row(j) {
+            // S_j b, then (S_j b) S_k = (S_k (S_j b)ᵀ)ᵀ.
+            let sb = columns(f, b);
+            if filter[k] == Filter::Free {
+                // And the block (k, j) = bᵀ of a free row k: bᵀ S_j.
+                correction += sb - b + sb.transpose() - b.transpose();
+            } else {
+                correction += columns(&filter[k], &sb.transpose()).transpose() - b;
+            }
+        }
+    }
+    all + correction + coupling::translation_block(remote, |k, v| filter[k].apply(v))
+}
+
+/// `S m`, the filter applied to each column of `m`.
+fn columns(f: &Filter, m: &Mat3) -> Mat3 {
+    Mat3::from_columns(&[
+        f.apply(&m.column(0).into()),
+        f.apply(&m.column(1).into()),
+        f.apply(&m.column(2).into()),
+    ])
+}
+
+/// The inverse of `E` on its range: translations that every particle
+/// blocks (a cloth pinned or lying on a plane) have no error to correct.
+fn pseudo_inverse(e: &Mat3) -> Mat3 {
+    let eigen = nalgebra::SymmetricEigen::new((e + e.transpose()) * 0.5);
+    let top = eigen.eigenvalues.max();
+    let mut inverse = Mat3::zeros();
+    for (k, &l) in eigen.eigenvalues.iter().enumerate() {
+        if l > RANGE * top {
+            let q = eigen.eigenvectors.column(k);
+            inverse += q * q.transpose() / l;
+        }
+    }
+    inverse
+}
+
+/// Eigenvalues of `E` below this share of its largest are taken as zero.
+const RANGE: Real = 1e-12;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng, rngs::StdRng};
+
+    /// The block sum with its corrections is `Σ_ij S_i A_ij S_j` computed
+    /// block by block, on a symmetric matrix with every kind of filter.
+    #[test]
+    fn the_operator_is_the_filtered_sum_of_the_blocks() {
+        let mut rng = StdRng::seed_from_u64(3);
+        let n = 50;
+        let pairs: Vec<(usize, usize)> = (0..n)
+            .flat_map(|i| [(i, (i + 1) % n), (i, (i + 7) % n)])
+            .collect();
+        let mut a = BlockCsr::with_pattern(n, pairs.iter().copied());
+        let random = |rng: &mut StdRng| Mat3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        for &(i, j) in &pairs {
+            let b = random(&mut rng);
+            let (ij, ji) = (a.slot(i, j).expect("ij"), a.slot(j, i).expect("ji"));
+            a.values[ij] += b;
+            a.values[ji] += b.transpose();
+        }
+        for i in 0..n {
+            let b = random(&mut rng);
+            let d = a.diag_slot(i);
+            a.values[d] += b * b.transpose() + Mat3::identity();
+        }
+        let unit = |rng: &mut StdRng| {
+            Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize()
+        };
+        let filter: Vec<Filter> = (0..n)
+            .map(|i| match i % 5 {
+                0 => Filter::Plane(unit(&mut rng)),
+                1 => Filter::Line(unit(&mut rng)),
+                2 => Filter::Fixed,
+                _ => Filter::Free,
+            })
+            .collect();
+        let mut direct = Mat3::zeros();
+        for i in 0..n {
+            for (j, b) in a.row(i) {
+                direct += filter[i].matrix() * b * filter[j].matrix();
+            }
+        }
+        let got = operator(&a, &[], &filter);
+        assert!(
+            (got - direct).norm() <= 1e-12 * direct.norm(),
+            "{got} against {direct}"
+        );
+    }
+
+    /// The pseudo-inverse inverts on the range and drops a blocked
+    /// direction.
+    #[test]
+    fn the_pseudo_inverse_drops_blocked_translations() {
+        let e = Mat3::from_diagonal(&Vec3::new(2.0, 4.0, 0.0));
+        let inverse = pseudo_inverse(&e);
+        assert!((inverse - Mat3::from_diagonal(&Vec3::new(0.5, 0.25, 0.0))).norm() < 1e-15);
+    }
+}
