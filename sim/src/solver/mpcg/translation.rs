@@ -8,9 +8,10 @@
 //! about `m / (m + h² k)`: for a very stiff, light cloth (stretch and
 //! shear 10⁹, 0.1 kg/m², 1/120 s) about 10⁻⁹, which tens of iterations
 //! do not find. After such a cloth struck a sphere the solves stopped
-//! with the whole cloth's velocity some 70 m/s off, the step terms
-//! estimating a 500th of the error; the next step's warm start carried
-//! it on, and the cloth flew off at 8,000 m/s² (docs/benchmarks.md, 1ae).
+//! with the whole cloth's velocity 7, later 67 m/s off, the step terms
+//! estimating under a 700th of the error; the next step's warm start
+//! carried it on, and the cloth flew off at 8,000 m/s²
+//! (docs/benchmarks.md, 1ae).
 //!
 //! The residual's net force tells. For `Z` the filtered translations
 //! `S [e_x e_y e_z]` and `E = Zᵀ (A + R) Z`, `A⁻¹ ⪰ Z E⁻¹ Zᵀ` (the
