@@ -239,14 +239,17 @@ pub fn mul_add(remote: &[Remote], v: &[Vec3], out: &mut [Vec3]) {
     }
 }
 
-/// `Σ S_k (coef n nᵀ) S_l` over the remote blocks, with `filter(k, v)`
-/// giving `S_k v`: their share of the filtered operator's action between
-/// rigid translations (`mpcg::translation`).
-pub fn translation_block(remote: &[Remote], filter: impl Fn(usize, &Vec3) -> Vec3) -> Mat3 {
-    remote.iter().fold(Mat3::zeros(), |e, r| {
+/// The remote blocks filtered, `(k, S_k (coef n nᵀ) S_l)`, with
+/// `filter(k, v)` giving `S_k v`: their share of the filtered operator's
+/// action on rigid translations, row by row (`mpcg::translation`).
+pub fn translation_blocks<'a>(
+    remote: &'a [Remote],
+    filter: impl Fn(usize, &Vec3) -> Vec3 + 'a,
+) -> impl Iterator<Item = (usize, Mat3)> + 'a {
+    remote.iter().map(move |r| {
         let row = filter(r.row as usize, &r.normal);
         let col = filter(r.col as usize, &r.normal);
-        e + row * col.transpose() * r.coef
+        (r.row as usize, row * col.transpose() * r.coef)
     })
 }
 

@@ -41,7 +41,8 @@
 //! cloth's rigid translation can hide from it for hundreds of iterations;
 //! before either stops a solve, the residual's net force bounds the error
 //! along the translations from below, and where that alone breaks the
-//! bound the solve corrects along them and restarts ([`translation`]).
+//! bound the solve corrects along them and restarts, deflating them from
+//! then on ([`translation`]).
 //!
 //! A solve is [`start`]ed (the warm start's residual, which may already
 //! meet the tolerance: then no preconditioner is needed at all) and then
@@ -215,7 +216,11 @@ pub fn iterate(
         if iterations >= opts.max_iterations {
             break SolveStatus::MaxIterations;
         }
-        let delta_new = precond.apply_filtered(a, s, &ws.r, &mut ws.s);
+        let delta_new = if ws.translation.deflating() {
+            ws.translation.apply(precond, (a, s), &ws.r, &mut ws.s)
+        } else {
+            precond.apply_filtered(a, s, &ws.r, &mut ws.s)
+        };
         if !delta_new.is_finite() {
             break SolveStatus::Breakdown;
         }
@@ -288,8 +293,8 @@ pub fn iterate(
 /// Before the error rule stops a solve: whether the error along the
 /// rigid translations alone breaks `bound` ([`translation`]). If so,
 /// `dv` and the residual take the Galerkin correction along them and CG
-/// must restart (the Lanczos tridiagonal and the step terms describe
-/// the iterates before it).
+/// must restart, deflating them from then on (the Lanczos tridiagonal
+/// and the step terms describe the iterates before it).
 fn translate(problem: &Problem<'_>, dv: &mut [Vec3], ws: &mut MpcgWorkspace, bound: Real) -> bool {
     let allowed = 0.25 * bound * bound;
     let s = problem.filter;
