@@ -100,9 +100,10 @@ impl Translation {
     /// s = (I − Q A) P⁻¹ (I − A Q) r + Q r,   Q = Z E⁻¹ Zᵀ
     /// ```
     ///
-    /// SPD whenever `P` is. The translations' eigenvalue becomes 1, and
-    /// the rest of the spectrum is `P⁻¹A`'s on the A-orthogonal
-    /// complement of `Z`: CG no longer loses them. It costs four passes
+    /// SPD whenever `P` is. The translations' eigenvalue becomes 1 and
+    /// the others are those of the deflated `P⁻¹A`, whose effective
+    /// condition is no worse than `P⁻¹A`'s (Nabben & Vuik 2004): CG no
+    /// longer loses the translations. It costs four passes
     /// over the particles an iteration beyond `P`, so a solve pays it only
     /// once its translations needed a correction. Leaves `S s` in `out`
     /// and returns `rᵀ s`, as [`Preconditioner::apply_filtered`] does.
