@@ -167,16 +167,10 @@ fn piece_len(n: usize, min: usize) -> Option<usize> {
     })
 }
 
-/// `Σ f(chunk)` over the chunks of `0..n`, partials added in order.
+/// `Σ f(chunk)` over the chunks of `0..n`, partials added in order (from
+/// `-0.0`, as `Iterator::sum` starts).
 pub fn sum(n: usize, f: impl Fn(Range<usize>) -> Real + Sync) -> Real {
-    let chunks = n.div_ceil(CHUNK);
-    let range = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(n);
-    if piece_len(n, PARALLEL_MIN).is_none() {
-        return (0..chunks).map(|c| f(range(c))).sum();
-    }
-    let mut partials = vec![0.0; chunks];
-    for_rows(&mut partials, 1, 2, |c, p| p[0] = f(range(c)));
-    partials.into_iter().sum()
+    sum_of(n, -0.0, f)
 }
 
 /// [`sum`] of values of any type that adds (a vector, a matrix): the same

@@ -5,23 +5,21 @@ use crate::math::Mat3;
 use crate::solver::precond::{BlockJacobi, Jacobi};
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 
-/// A random SPD block matrix on a ring of `n` particles with neighbours
-/// up to distance 2, made diagonally dominant only weakly so CG has work.
-fn random_spd(n: usize, rng: &mut StdRng) -> BlockCsr {
+/// An SPD block matrix on a ring of `n` particles with neighbours up to
+/// distance 2: a PSD "spring" term `(e_i - e_j)(e_i - e_j)ᵀ ⊗ spring()`
+/// per pair plus a positive diagonal drawn from `mass`.
+fn ring(
+    n: usize,
+    rng: &mut StdRng,
+    spring: impl Fn(&mut StdRng) -> Mat3,
+    mass: std::ops::Range<f64>,
+) -> BlockCsr {
     let pairs: Vec<(usize, usize)> = (0..n)
         .flat_map(|i| [(i, (i + 1) % n), (i, (i + 2) % n)])
         .collect();
     let mut a = BlockCsr::with_pattern(n, pairs.iter().copied());
-    // Sum of random PSD "spring" terms k (e_i - e_j)(e_i - e_j)ᵀ ⊗ d dᵀ
-    // plus a positive diagonal: SPD by construction.
     for &(i, j) in &pairs {
-        let d = Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
-        let k: f64 = rng.random_range(1.0..100.0);
-        let m = d * d.transpose() * k;
+        let m = spring(rng);
         for (p, q, sign) in [(i, i, 1.0), (j, j, 1.0), (i, j, -1.0), (j, i, -1.0)] {
             let sl = a.slot(p, q).expect("in pattern");
             a.values[sl] += m * sign;
@@ -29,9 +27,24 @@ fn random_spd(n: usize, rng: &mut StdRng) -> BlockCsr {
     }
     for i in 0..n {
         let sl = a.diag_slot(i);
-        a.values[sl] += Mat3::identity() * rng.random_range(0.01..1.0);
+        a.values[sl] += Mat3::identity() * rng.random_range(mass.clone());
     }
     a
+}
+
+/// A random SPD ring (`ring`) of springs `k d dᵀ` along random
+/// directions, made diagonally dominant only weakly so CG has work.
+pub(super) fn random_spd(n: usize, rng: &mut StdRng) -> BlockCsr {
+    let spring = |rng: &mut StdRng| {
+        let d = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let k: f64 = rng.random_range(1.0..100.0);
+        d * d.transpose() * k
+    };
+    ring(n, rng, spring, 0.01..1.0)
 }
 
 fn random_vec(n: usize, rng: &mut StdRng) -> Vec<Vec3> {
@@ -327,27 +340,13 @@ fn the_error_bound_stops_with_the_error_within_it() {
     }
 }
 
-/// A stiff, light ring: isotropic springs `k (e_i - e_j)(e_i - e_j)ᵀ ⊗ I`
-/// of 10⁶–10⁸ between neighbours up to distance 2, masses 10⁻⁴–10⁻³. Its
-/// rigid translations are exactly the mass's (`K 1 = 0`): under block
-/// Jacobi their eigenvalue is ~10⁻¹⁰, invisible to the error estimates.
+/// A stiff, light ring (`ring`): isotropic springs `k I` of 10⁶–10⁸,
+/// masses 10⁻⁴–10⁻³. Its rigid translations are exactly the mass's
+/// (`K 1 = 0`): under block Jacobi their eigenvalue is ~10⁻¹⁰, invisible
+/// to the error estimates.
 fn stiff_ring(n: usize, rng: &mut StdRng) -> BlockCsr {
-    let pairs: Vec<(usize, usize)> = (0..n)
-        .flat_map(|i| [(i, (i + 1) % n), (i, (i + 2) % n)])
-        .collect();
-    let mut a = BlockCsr::with_pattern(n, pairs.iter().copied());
-    for &(i, j) in &pairs {
-        let k = Mat3::identity() * 10f64.powf(rng.random_range(6.0..8.0));
-        for (p, q, sign) in [(i, i, 1.0), (j, j, 1.0), (i, j, -1.0), (j, i, -1.0)] {
-            let sl = a.slot(p, q).expect("in pattern");
-            a.values[sl] += k * sign;
-        }
-    }
-    for i in 0..n {
-        let sl = a.diag_slot(i);
-        a.values[sl] += Mat3::identity() * rng.random_range(1e-4..1e-3);
-    }
-    a
+    let spring = |rng: &mut StdRng| Mat3::identity() * 10f64.powf(rng.random_range(6.0..8.0));
+    ring(n, rng, spring, 1e-4..1e-3)
 }
 
 /// The error rule on a warm start that carries a rigid translation error

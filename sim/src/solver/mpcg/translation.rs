@@ -254,25 +254,10 @@ mod tests {
         )
     }
 
-    /// A random SPD block matrix on a ring of `n` with neighbours 1 and 7
-    /// apart, and filters of every kind.
+    /// A random SPD block matrix (`mpcg::tests::random_spd`) and filters
+    /// of every kind.
     fn system(n: usize, rng: &mut StdRng) -> (BlockCsr, Vec<Filter>) {
-        let pairs: Vec<(usize, usize)> = (0..n)
-            .flat_map(|i| [(i, (i + 1) % n), (i, (i + 7) % n)])
-            .collect();
-        let mut a = BlockCsr::with_pattern(n, pairs.iter().copied());
-        let random = |rng: &mut StdRng| Mat3::from_fn(|_, _| rng.random_range(-1.0..1.0));
-        for &(i, j) in &pairs {
-            let b = random(rng);
-            let (ij, ji) = (a.slot(i, j).expect("ij"), a.slot(j, i).expect("ji"));
-            a.values[ij] += b;
-            a.values[ji] += b.transpose();
-        }
-        for i in 0..n {
-            let b = random(rng) * 3.0;
-            let d = a.diag_slot(i);
-            a.values[d] += b * b.transpose() + Mat3::identity() * 8.0;
-        }
+        let a = super::super::tests::random_spd(n, rng);
         let filter = (0..n)
             .map(|i| match i % 5 {
                 0 => Filter::Plane(vec3(rng).normalize()),
