@@ -133,7 +133,12 @@ impl CollisionStage<'_> {
             let (plan, nodes) = self.plan(k, &x[i], &v[i], h);
             self.scratch.counters.nodes += nodes;
             let offset = self.obstacles.colliders()[k].surface.offset();
-            leaving.push(!step.pinned[i] && plan.leaving(&x[i], &v[i], h, offset));
+            // A contact this step's own solve found crossing is not let go
+            // on its redo: it went in along the path the solve took, so it
+            // was not leaving, whatever its velocity says (let go, it
+            // crossed again on every redo, and the last one was kept).
+            let held = self.scratch.held.contains(&(ct.particle, ct.obstacle));
+            leaving.push(!step.pinned[i] && !held && plan.leaving(&x[i], &v[i], h, offset));
             plans.push(plan);
         }
         // A particle leaving its surface is let go before the solve: held
@@ -184,7 +189,9 @@ impl CollisionStage<'_> {
     /// particle not already in contact. A crossing that ends deeper than
     /// [`SHALLOW`] offsets inside, or passes through and out again
     /// (tunnelling), becomes a contact; if `redo_allowed` the step is then
-    /// to be redone ([`Verdict::Redo`]). Otherwise the step is accepted:
+    /// to be redone ([`Verdict::Redo`]), that contact held through the
+    /// step's redos ([`Self::prepare`] does not let it go as leaving).
+    /// Otherwise the step is accepted:
     /// with `lambda(i)` the constraint impulse on particle `i`
     /// (`A dv - b`) and `v1` the new velocities, contacts are released or
     /// switch friction ([`Self::release`]), and the crossings take effect
@@ -205,10 +212,12 @@ impl CollisionStage<'_> {
             d >= 0.0 || d < -SHALLOW * c.surface.offset()
         });
         if !self.scratch.found.is_empty() && redo_allowed {
+            self.scratch.held.extend_from_slice(&self.scratch.found);
             self.add_found();
             self.scratch.counters.redone += 1;
             return Verdict::Redo;
         }
+        self.scratch.held.clear();
         self.release(v1, step.mass, gravity, step.h, lambda);
         self.add_found();
         Verdict::Accept
