@@ -12,6 +12,13 @@ pub struct Aabb {
     pub hi: Vec3,
 }
 
+/// The empty box, the identity of [`Aabb::union`].
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::empty()
+    }
+}
+
 impl Aabb {
     /// The empty box (the identity of [`Aabb::union`]).
     pub fn empty() -> Self {

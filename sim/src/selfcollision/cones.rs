@@ -187,7 +187,7 @@ impl Cone {
 /// `out` (numbered as by [`Bvh::fold_up`]): a leaf's merged from its
 /// triangles', an inner node's from its children's.
 pub fn fold(bvh: &Bvh, tri_cones: &[Cone], out: &mut Vec<Cone>) {
-    bvh.fold_up(
+    bvh.fold_up_shared(
         out,
         |leaf| {
             leaf.iter()

@@ -30,6 +30,8 @@ pub struct Bvh {
     pub(super) order: Vec<u32>,
     /// Each primitive's own box, tested before it is handed out.
     pub(super) boxes: Vec<Aabb>,
+    /// [`Bvh::refit`]'s node boxes before they are written to the nodes.
+    fitted: Vec<Aabb>,
 }
 
 impl Bvh {
@@ -55,6 +57,7 @@ impl Bvh {
             nodes: Vec::with_capacity(2 * boxes.len() / LEAF_SIZE + 1),
             order: (0..boxes.len() as u32).collect(),
             boxes: boxes.to_vec(),
+            fitted: Vec::new(),
         };
         if !boxes.is_empty() {
             bvh.split(&mut split, 0, boxes.len());
@@ -86,21 +89,22 @@ impl Bvh {
 
     /// Recomputes every box bottom-up from new primitive boxes (same
     /// primitives, moved): for deforming obstacles.
+    /// On the team ([`Bvh::fold_up_shared`]) where the tree is large.
     pub fn refit(&mut self, boxes: &[Aabb]) {
         self.boxes.copy_from_slice(boxes);
-        for k in (0..self.nodes.len()).rev() {
-            let n = self.nodes[k];
-            self.nodes[k].aabb = if n.count > 0 {
-                let s = n.start as usize;
-                self.order[s..s + n.count as usize]
-                    .iter()
+        let mut fitted = std::mem::take(&mut self.fitted);
+        self.fold_up_shared(
+            &mut fitted,
+            |leaf| {
+                leaf.iter()
                     .fold(Aabb::empty(), |b, &i| b.union(&boxes[i as usize]))
-            } else {
-                self.nodes[k + 1]
-                    .aabb
-                    .union(&self.nodes[n.start as usize].aabb)
-            };
+            },
+            Aabb::union,
+        );
+        for (n, b) in self.nodes.iter_mut().zip(&fitted) {
+            n.aabb = *b;
         }
+        self.fitted = fitted;
     }
 
     /// The root box (empty for no primitives).
@@ -241,26 +245,6 @@ impl Bvh {
                 (na.start, b + 1),
                 (na.start, nb.start),
             ]),
-        }
-    }
-
-    /// One value per node, computed bottom-up: `leaf(primitives)` at a
-    /// leaf, `merge(left, right)` at an inner node; `out[k]` is node `k`'s.
-    pub fn fold_up<T: Clone + Default>(
-        &self,
-        out: &mut Vec<T>,
-        mut leaf: impl FnMut(&[u32]) -> T,
-        mut merge: impl FnMut(&T, &T) -> T,
-    ) {
-        out.clear();
-        out.resize(self.nodes.len(), T::default());
-        for k in (0..self.nodes.len()).rev() {
-            let n = &self.nodes[k];
-            out[k] = if n.count > 0 {
-                leaf(self.leaf(n))
-            } else {
-                merge(&out[k + 1], &out[n.start as usize])
-            };
         }
     }
 
