@@ -6,9 +6,9 @@ use super::tree::Bvh;
 use crate::parallel;
 
 /// Fewest nodes worth folding on the team ([`Bvh::fold_up_shared`]). At
-/// sphere-drape-30's 841 the shared cone fold cost more than it saved
+/// sphere-drape-30's 1,023 the shared cone fold cost more than it saved
 /// (self-collision stage 0.177–0.179 s alone, 0.180–0.182 s shared, two
-/// threads); at sphere-drape-100's 9,800 it takes the fold off the serial
+/// threads); at sphere-drape-100's 14,627 it takes the fold off the serial
 /// path (docs/benchmarks.md 1af).
 const FOLD_SHARED_MIN: usize = 1024;
 /// Subtrees per thread of a shared fold: more than one, so a thread slow
