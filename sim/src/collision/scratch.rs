@@ -42,8 +42,9 @@ pub struct CollisionScratch {
     /// Crossings found by the last test, `(particle, obstacle)`.
     pub(super) found: Vec<(u32, u32)>,
     /// Crossings found by this step's earlier solves, `(particle,
-    /// obstacle)`: held through the step's redos, never let go as leaving
-    /// (`CollisionStage::prepare`); cleared when the step is accepted.
+    /// obstacle)`, sorted: held through the step's redos, never let go as
+    /// leaving (`CollisionStage::prepare`); cleared when the step is
+    /// accepted.
     pub(super) held: Vec<(u32, u32)>,
     /// The path test's pieces (`super::paths`).
     pub(super) pieces: Vec<PathPiece>,

@@ -137,7 +137,11 @@ impl CollisionStage<'_> {
             // on its redo: it went in along the path the solve took, so it
             // was not leaving, whatever its velocity says (let go, it
             // crossed again on every redo, and the last one was kept).
-            let held = self.scratch.held.contains(&(ct.particle, ct.obstacle));
+            let held = self
+                .scratch
+                .held
+                .binary_search(&(ct.particle, ct.obstacle))
+                .is_ok();
             leaving.push(!step.pinned[i] && !held && plan.leaving(&x[i], &v[i], h, offset));
             plans.push(plan);
         }
@@ -212,7 +216,10 @@ impl CollisionStage<'_> {
             d >= 0.0 || d < -SHALLOW * c.surface.offset()
         });
         if !self.scratch.found.is_empty() && redo_allowed {
-            self.scratch.held.extend_from_slice(&self.scratch.found);
+            let held = &mut self.scratch.held;
+            held.extend_from_slice(&self.scratch.found);
+            held.sort_unstable();
+            held.dedup();
             self.add_found();
             self.scratch.counters.redone += 1;
             return Verdict::Redo;

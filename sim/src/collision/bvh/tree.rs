@@ -88,8 +88,9 @@ impl Bvh {
     }
 
     /// Recomputes every box bottom-up from new primitive boxes (same
-    /// primitives, moved): for deforming obstacles.
-    /// On the team ([`Bvh::fold_up_shared`]) where the tree is large.
+    /// primitives, moved): for the cloth's own triangles and deforming
+    /// obstacles; on the team where the tree is large
+    /// ([`Bvh::fold_up_shared`]).
     pub fn refit(&mut self, boxes: &[Aabb]) {
         self.boxes.copy_from_slice(boxes);
         let mut fitted = std::mem::take(&mut self.fitted);
