@@ -2,7 +2,7 @@
 //! primitives, an inner node's from its children's): on one thread, or on
 //! the team with the same value at every node.
 
-use super::tree::Bvh;
+use super::tree::{Bvh, Cut};
 use crate::parallel;
 
 /// Fewest nodes worth folding on the team ([`Bvh::fold_up_shared`]). At
@@ -11,9 +11,10 @@ use crate::parallel;
 /// threads); at sphere-drape-100's 14,627 it takes the fold off the serial
 /// path (docs/benchmarks.md 1af).
 const FOLD_SHARED_MIN: usize = 1024;
-/// Subtrees per thread of a shared fold: more than one, so a thread slow
-/// to start leaves its share to the others.
-const FOLD_PIECES_PER_THREAD: usize = 8;
+/// Depth at which a shared fold cuts the tree: at most 32 subtrees, as
+/// many as [`parallel::each`] hands out at once, and more than one a
+/// thread, so a thread slow to start leaves its share to the others.
+const CUT_DEPTH: u32 = 5;
 
 impl Bvh {
     /// One value per node, computed bottom-up: `leaf(primitives)` at a
@@ -44,16 +45,16 @@ impl Bvh {
         }
         out.clear();
         out.resize(self.nodes.len(), T::default());
-        let (roots, top) = self.cut(parallel::threads() * FOLD_PIECES_PER_THREAD);
+        // The tree's topology never changes: cut once.
+        let (roots, top) = self.cut.get_or_init(|| self.cut_at(CUT_DEPTH));
         // The subtrees' nodes are disjoint runs of `out`, in order.
-        let mut parts = Vec::with_capacity(roots.len());
         let (mut rest, mut at) = (out.as_mut_slice(), 0);
-        for &(root, end) in &roots {
+        let parts = roots.iter().map(|&(root, end)| {
             let (_, tail) = std::mem::take(&mut rest).split_at_mut(root - at);
             let (mine, tail) = tail.split_at_mut(end - root);
-            parts.push((root, mine));
             (rest, at) = (tail, end);
-        }
+            (root, mine)
+        });
         parallel::each(parts, |(root, part)| {
             self.fold_subtree(root, part, &leaf, &merge);
         });
@@ -82,11 +83,10 @@ impl Bvh {
         }
     }
 
-    /// The tree cut below its top levels into about `pieces` subtrees:
+    /// The tree cut at `depth` (or at a leaf above it) into subtrees:
     /// their `(root, end)` node ranges, and the inner nodes above them,
     /// each list in depth-first order.
-    fn cut(&self, pieces: usize) -> (Vec<(usize, usize)>, Vec<usize>) {
-        let depth = pieces.next_power_of_two().trailing_zeros();
+    fn cut_at(&self, depth: u32) -> Cut {
         let (mut roots, mut top) = (Vec::new(), Vec::new());
         let mut stack = vec![(0, 0)];
         while let Some((k, d)) = stack.pop() {

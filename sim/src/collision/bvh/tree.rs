@@ -9,6 +9,7 @@
 
 use crate::collision::aabb::Aabb;
 use crate::math::{Real, Vec3};
+use std::sync::OnceLock;
 
 /// Most primitives in one leaf.
 const LEAF_SIZE: usize = 4;
@@ -32,7 +33,12 @@ pub struct Bvh {
     pub(super) boxes: Vec<Aabb>,
     /// [`Bvh::refit`]'s node boxes before they are written to the nodes.
     fitted: Vec<Aabb>,
+    /// Where a shared fold cuts the tree (`fold`), made at its first.
+    pub(super) cut: OnceLock<Cut>,
 }
+
+/// Subtrees' `(root, end)` node ranges and the inner nodes above them.
+pub(super) type Cut = (Vec<(usize, usize)>, Vec<usize>);
 
 impl Bvh {
     /// Builds the hierarchy over `boxes` (one per primitive).
@@ -58,6 +64,7 @@ impl Bvh {
             order: (0..boxes.len() as u32).collect(),
             boxes: boxes.to_vec(),
             fitted: Vec::new(),
+            cut: OnceLock::new(),
         };
         if !boxes.is_empty() {
             bvh.split(&mut split, 0, boxes.len());
