@@ -197,6 +197,16 @@ pub fn kinetic_impulse(k: &Contact, p: &Plan, mu: Real, mass: Real, h: Real) -> 
 mod tests {
     use super::*;
 
+    /// A contact's plan with no slip.
+    fn plan_at(normal: Vec3, point: Vec3, velocity: Vec3) -> Plan {
+        Plan {
+            normal,
+            point,
+            velocity,
+            slip: Vec3::zeros(),
+        }
+    }
+
     /// On a table's top (normal `+z`, offset 2 mm, step 1/240 s): resting
     /// or sliding along the top it stays; flung up or off faster than an
     /// offset a step it leaves; moving away from inside the surface (being
@@ -204,12 +214,7 @@ mod tests {
     #[test]
     fn a_particle_leaves_when_it_moves_away_faster_than_an_offset_a_step() {
         let (h, offset) = (1.0 / 240.0, 0.002);
-        let plan = |velocity: Vec3| Plan {
-            normal: Vec3::z(),
-            point: Vec3::zeros(),
-            velocity,
-            slip: Vec3::zeros(),
-        };
+        let plan = |velocity: Vec3| plan_at(Vec3::z(), Vec3::zeros(), velocity);
         let still = plan(Vec3::zeros());
         let on = Vec3::zeros();
         let fast = offset / h * 1.5;
@@ -240,12 +245,7 @@ mod tests {
     fn sliding_contact_sets_the_normal_velocity_and_lands_on_the_surface() {
         let mut c = Constraints::free(1);
         let n = Vec3::new(0.0, 0.6, 0.8);
-        let plan = Plan {
-            normal: n,
-            point: Vec3::new(0.0, 0.0, 0.1),
-            velocity: Vec3::new(0.5, 0.0, 1.0),
-            slip: Vec3::zeros(),
-        };
+        let plan = plan_at(n, Vec3::new(0.0, 0.0, 0.1), Vec3::new(0.5, 0.0, 1.0));
         let (x, v, h) = (Vec3::new(0.3, -0.2, 0.05), Vec3::new(1.0, 2.0, -3.0), 0.01);
         constrain(
             0,
@@ -286,18 +286,8 @@ mod tests {
         let mut c = Constraints::free(1);
         let n1 = Vec3::z();
         let n2 = Vec3::new(1.0, 0.0, 1.0).normalize();
-        let p1 = Plan {
-            normal: n1,
-            point: Vec3::new(0.0, 0.0, 0.0),
-            velocity: Vec3::zeros(),
-            slip: Vec3::zeros(),
-        };
-        let p2 = Plan {
-            normal: n2,
-            point: Vec3::new(0.1, 0.0, 0.0),
-            velocity: Vec3::new(0.0, 0.0, 0.2),
-            slip: Vec3::zeros(),
-        };
+        let p1 = plan_at(n1, Vec3::new(0.0, 0.0, 0.0), Vec3::zeros());
+        let p2 = plan_at(n2, Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.2));
         let (x, v, h) = (Vec3::new(0.0, 0.0, -0.01), Vec3::new(0.0, 1.0, -1.0), 0.01);
         constrain(
             0,
@@ -320,12 +310,11 @@ mod tests {
     #[test]
     fn sticking_moves_with_the_obstacle_and_friction_never_reverses() {
         let mut c = Constraints::free(1);
-        let mut plan = Plan {
-            normal: Vec3::z(),
-            point: Vec3::new(1.0, 0.0, 0.0),
-            velocity: Vec3::new(0.0, 2.0, 0.0),
-            slip: Vec3::zeros(),
-        };
+        let mut plan = plan_at(
+            Vec3::z(),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+        );
         let (x, v, h) = (Vec3::new(1.0, 0.0, 0.001), Vec3::zeros(), 0.01);
         constrain(
             0,
@@ -363,12 +352,7 @@ mod tests {
     fn what_bdf2_carries_into_the_surface_is_cancelled_whatever_the_cap() {
         let (h, max_push) = (0.01, 5e-4);
         let n = Vec3::new(0.0, 0.6, 0.8);
-        let plan = Plan {
-            normal: n,
-            point: Vec3::new(0.0, 0.0, 0.1),
-            velocity: Vec3::new(0.5, 0.0, 0.2),
-            slip: Vec3::zeros(),
-        };
+        let plan = plan_at(n, Vec3::new(0.0, 0.0, 0.1), Vec3::new(0.5, 0.0, 0.2));
         let dx = [Vec3::new(0.001, 0.0, 0.0) - n * (12.0 * max_push)];
         let dvs = [Vec3::zeros()];
         let bdf2 = Scheme::bdf2(h, h, &dx, &dvs);

@@ -36,27 +36,24 @@ fn ring(
 /// directions, made diagonally dominant only weakly so CG has work.
 pub(super) fn random_spd(n: usize, rng: &mut StdRng) -> BlockCsr {
     let spring = |rng: &mut StdRng| {
-        let d = Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
+        let d = random_vec3(rng);
         let k: f64 = rng.random_range(1.0..100.0);
         d * d.transpose() * k
     };
     ring(n, rng, spring, 0.01..1.0)
 }
 
+/// A vector with coordinates uniform in `[-1, 1)`.
+pub(super) fn random_vec3(rng: &mut StdRng) -> Vec3 {
+    Vec3::new(
+        rng.random_range(-1.0..1.0),
+        rng.random_range(-1.0..1.0),
+        rng.random_range(-1.0..1.0),
+    )
+}
+
 fn random_vec(n: usize, rng: &mut StdRng) -> Vec<Vec3> {
-    (0..n)
-        .map(|_| {
-            Vec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            )
-        })
-        .collect()
+    (0..n).map(|_| random_vec3(rng)).collect()
 }
 
 #[test]

@@ -243,25 +243,18 @@ const RANGE: Real = 1e-12;
 #[cfg(test)]
 mod tests {
     use super::super::super::precond::BlockJacobi;
+    use super::super::tests::{random_spd, random_vec3};
     use super::*;
-    use rand::{RngExt, SeedableRng, rngs::StdRng};
-
-    fn vec3(rng: &mut StdRng) -> Vec3 {
-        Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        )
-    }
+    use rand::{SeedableRng, rngs::StdRng};
 
     /// A random SPD block matrix (`mpcg::tests::random_spd`) and filters
     /// of every kind.
     fn system(n: usize, rng: &mut StdRng) -> (BlockCsr, Vec<Filter>) {
-        let a = super::super::tests::random_spd(n, rng);
+        let a = random_spd(n, rng);
         let filter = (0..n)
             .map(|i| match i % 5 {
-                0 => Filter::Plane(vec3(rng).normalize()),
-                1 => Filter::Line(vec3(rng).normalize()),
+                0 => Filter::Plane(random_vec3(rng).normalize()),
+                1 => Filter::Line(random_vec3(rng).normalize()),
                 2 => Filter::Fixed,
                 _ => Filter::Free,
             })
@@ -296,7 +289,7 @@ mod tests {
         let n = 60;
         let (a, filter) = system(n, &mut rng);
         let filtered = |rng: &mut StdRng| -> Vec<Vec3> {
-            filter.iter().map(|f| f.apply(&vec3(rng))).collect()
+            filter.iter().map(|f| f.apply(&random_vec3(rng))).collect()
         };
         let mut precond = BlockJacobi::default();
         precond.update(&a, &filter);
