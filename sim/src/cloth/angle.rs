@@ -18,6 +18,10 @@ use crate::spec::JacobianMode;
 /// ε of the smoothed absolute value in the threshold terms, radians.
 pub const THRESHOLD_SMOOTHING: Real = 1e-2;
 
+/// An arm's length and unit vector; `None` for a collapsed arm (its
+/// length at most `√MIN_POSITIVE`, where no direction is defined).
+pub type Arm = Option<(Real, Vec3)>;
+
 /// Local geometry of one angle: arms, their unit vectors, `f` and `∂f/∂e`.
 #[derive(Debug, Clone, Copy)]
 pub struct AngleGeom {
@@ -53,9 +57,20 @@ impl AngleGeom {
         if r1 <= Real::MIN_POSITIVE.sqrt() || r2 <= Real::MIN_POSITIVE.sqrt() {
             return None;
         }
-        let (u, w) = (e1 / r1, e2 / r2);
+        Some(Self::of_arms((r1, e1 / r1), (r2, e2 / r2)))
+    }
+
+    /// The geometry of two arms measured beforehand (`cloth::ArmTable`): bit
+    /// for bit [`Self::new`]'s when they were measured as it measures them.
+    #[inline(always)]
+    pub fn from_arms(arm1: Arm, arm2: Arm) -> Option<Self> {
+        Some(Self::of_arms(arm1?, arm2?))
+    }
+
+    #[inline(always)]
+    fn of_arms((r1, u): (Real, Vec3), (r2, w): (Real, Vec3)) -> Self {
         let f = u.dot(&w).clamp(-1.0, 1.0);
-        Some(Self {
+        Self {
             r1,
             r2,
             u,
@@ -64,7 +79,7 @@ impl AngleGeom {
             g1: (w - u * f) / r1,
             g2: (u - w * f) / r2,
             sin: u.cross(&w).norm(),
-        })
+        }
     }
 
     /// `∂²f/∂e_i ∂e_j` as `[[H11, H12], [H21, H22]]`.
@@ -267,14 +282,31 @@ impl<L: AngleLaw> Force for AngleForce<L> {
         mode: JacobianMode,
         sink: &mut S,
     ) {
+        let [a, b, c] = self.elements[e].idx;
+        if let Some(g) = AngleGeom::new(&x[a], &x[b], &x[c]) {
+            self.add_element_at(e, &g, v, mode, sink);
+        }
+        // A collapsed arm has no angle; its springs resist it.
+    }
+}
+
+impl<L: AngleLaw> AngleForce<L> {
+    /// [`Force::add_element`] with the element's geometry `g` already
+    /// measured (`AngleGeom::new`, or `AngleGeom::from_arms`).
+    #[inline]
+    pub fn add_element_at<S: Sink>(
+        &self,
+        e: usize,
+        g: &AngleGeom,
+        v: &[Vec3],
+        mode: JacobianMode,
+        sink: &mut S,
+    ) {
         let el = &self.elements[e];
         let [a, b, c] = el.idx;
-        let Some(g) = AngleGeom::new(&x[a], &x[b], &x[c]) else {
-            return; // a collapsed arm has no angle; its springs resist it
-        };
-        let d = L::eval(&g, el.c1, el.c0, mode);
+        let d = L::eval(g, el.c1, el.c0, mode);
         let damping = if self.damping > 0.0 {
-            L::damping(&g, self.damping * el.c1, [v[a] - v[b], v[c] - v[b]], mode)
+            L::damping(g, self.damping * el.c1, [v[a] - v[b], v[c] - v[b]], mode)
         } else {
             None
         };

@@ -10,6 +10,7 @@
 //! grid converges to the same cloth (see [`grid`] and each force's docs).
 
 mod angle;
+mod arms;
 mod bend;
 mod damping;
 mod drag;
@@ -19,7 +20,10 @@ mod model;
 mod shear;
 mod stretch;
 
-pub use angle::{AngleElement, AngleForce, AngleLaw, THRESHOLD_SMOOTHING, energy_of_square};
+pub use angle::{
+    AngleElement, AngleForce, AngleGeom, AngleLaw, THRESHOLD_SMOOTHING, energy_of_square,
+};
+pub use arms::{ArmRef, ArmTable};
 pub use bend::Bend;
 pub use damping::SpringDamping;
 pub use drag::AirDrag;

@@ -23,7 +23,7 @@ use std::ops::Range;
 use super::bsr::BlockCsr;
 use super::scheme::Scheme;
 use super::sink::AssemblySink;
-use crate::cloth::{Force, ForceModel};
+use crate::cloth::{AngleForce, AngleGeom, AngleLaw, ArmRef, ArmTable, Force, ForceModel};
 use crate::math::{Mat3, Real, Vec3};
 use crate::spec::JacobianMode;
 
@@ -45,6 +45,10 @@ pub struct System {
     /// The damping is on the stretch springs, one for one: each spring
     /// and its damping are added as one pair (the damping term is empty).
     springs_damped: bool,
+    /// The bend and shear elements' arms, measured once per assembly...
+    arms: ArmTable,
+    /// ...and each element's two, for bend and shear.
+    arm_refs: [Vec<[ArmRef; 2]>; 2],
 }
 
 const TERMS: usize = 5;
@@ -170,6 +174,7 @@ impl System {
             slot_table(&model.shear, &a),
             slot_table(&model.drag, &a),
         ];
+        let (arms, arm_refs) = ArmTable::new([&model.bend.elements, &model.shear.elements]);
         let count = crate::parallel::threads().min(n / BAND_MIN).max(1);
         let bands = (0..count)
             .map(|k| {
@@ -199,6 +204,8 @@ impl System {
             slots,
             bands,
             springs_damped,
+            arms,
+            arm_refs,
         }
     }
 
@@ -213,6 +220,16 @@ impl System {
             };
         }
         let w = &self.w[..];
+        // PERF: each arm measured once, not by each of the up to six
+        // elements it belongs to (sphere-drape-30, one thread: the
+        // assembly 0.287–0.294 → 0.255–0.261 s; docs/benchmarks.md 1ag).
+        self.arms.measure(input.x);
+        let tables = Tables {
+            slots: &self.slots,
+            springs_damped: self.springs_damped,
+            arms: &self.arms,
+            arm_refs: &self.arm_refs,
+        };
         // Each band's rows, their slots and their part of `b`.
         let mut work = Vec::with_capacity(self.bands.len());
         let (mut values, mut b) = (&mut self.a.values[..], &mut self.b[..]);
@@ -222,14 +239,21 @@ impl System {
             work.push((band, vals, bs));
             (values, b) = (rest_v, rest_b);
         }
-        let (slots, springs_damped) = (&self.slots, self.springs_damped);
         crate::parallel::each(
             work,
             |(band, values, b): (&Band, &mut [Mat3], &mut [Vec3])| {
-                assemble_band(model, input, w, (slots, springs_damped), band, values, b);
+                assemble_band(model, input, w, &tables, band, values, b);
             },
         );
     }
+}
+
+/// What every band reads besides the model and the input.
+struct Tables<'a> {
+    slots: &'a [Vec<u32>; TERMS],
+    springs_damped: bool,
+    arms: &'a ArmTable,
+    arm_refs: &'a [Vec<[ArmRef; 2]>; 2],
 }
 
 /// One band: mass and gravity on its rows, then every force's elements
@@ -238,7 +262,7 @@ fn assemble_band(
     model: &ForceModel,
     input: &AssemblyInput<'_>,
     w: &[Vec3],
-    (slots, springs_damped): (&[Vec<u32>; TERMS], bool),
+    tables: &Tables<'_>,
     band: &Band,
     values: &mut [Mat3],
     b: &mut [Vec3],
@@ -262,12 +286,13 @@ fn assemble_band(
         slots: &[],
     };
     let (x, v) = (input.x, input.v);
+    let (arms, arm_refs) = (tables.arms, tables.arm_refs);
     for term in Term::ALL {
         let t = term as usize;
-        sink.slots = &slots[t];
+        sink.slots = &tables.slots[t];
         let elements = &band.elements[t];
         match term {
-            Term::Stretch if springs_damped => {
+            Term::Stretch if tables.springs_damped => {
                 for &e in elements {
                     model
                         .damping
@@ -276,8 +301,8 @@ fn assemble_band(
             }
             Term::Stretch => add_term(&model.stretch, elements, x, v, &mut sink),
             Term::Damping => add_term(&model.damping, elements, x, v, &mut sink),
-            Term::Bend => add_term(&model.bend, elements, x, v, &mut sink),
-            Term::Shear => add_term(&model.shear, elements, x, v, &mut sink),
+            Term::Bend => add_angles(&model.bend, elements, (arms, &arm_refs[0]), v, &mut sink),
+            Term::Shear => add_angles(&model.shear, elements, (arms, &arm_refs[1]), v, &mut sink),
             Term::Drag => add_term(&model.drag, elements, x, v, &mut sink),
         }
     }
@@ -293,6 +318,24 @@ fn add_term<F: Force>(
 ) {
     for &e in elements {
         force.add_element(e as usize, x, v, JacobianMode::Solver, sink);
+    }
+}
+
+/// Adds `elements` of an angle force, in order, each from its arms as
+/// `arms` measured them.
+fn add_angles<L: AngleLaw>(
+    force: &AngleForce<L>,
+    elements: &[u32],
+    (arms, refs): (&ArmTable, &[[ArmRef; 2]]),
+    v: &[Vec3],
+    sink: &mut AssemblySink<'_>,
+) {
+    for &e in elements {
+        let [r1, r2] = refs[e as usize];
+        // A collapsed arm has no angle; its springs resist it.
+        if let Some(g) = AngleGeom::from_arms(arms.get(r1), arms.get(r2)) {
+            force.add_element_at(e as usize, &g, v, JacobianMode::Solver, sink);
+        }
     }
 }
 
