@@ -29,13 +29,17 @@
 //! rows `drapery serve` stored for the 50² drape over 1 s (hello 351 kB,
 //! checkpoint 215 B per particle, statistics 1.9 kB per frame on average,
 //! 2.9 kB at most with 511 particles in contact); the time is `drapery run`
-//! of the 100² drape over 0.6 s, through its contact with the sphere (27.4
-//! s for 154 steps: 0.18 s per step). Time per step grows like `N^1.5`
-//! (CG iterations ~ √N, each ~ N; measured N^1.42 from 50² to 150²,
-//! N^1.49 in docs/benchmarks.md), so one constant, the seconds per step
-//! of a 100² cloth, sets the scale: recalibrate
+//! on one thread (a worker's share when every worker is busy) of the
+//! drape over 0.6 s, through its contact with the sphere (recalibrated
+//! 2026-11-28: 50², 100², 150² took 0.0084, 0.058 and 0.19 s per step,
+//! where the constant of 2026-11-23, 0.18 s at 100², was three times what
+//! the solver now takes). Time per step grows like `N^1.5` (CG iterations
+//! ~ √N, each ~ N; measured N^1.41 from 50² to 150²), so one constant,
+//! the seconds per step of a 100² cloth, sets the scale: recalibrate
 //! [`SECONDS_PER_STEP_AT_REFERENCE`] when the solver gets faster (`drapery
-//! bench scale` prints seconds per step).
+//! bench scale` prints seconds per step). Above 150² the exponent keeps
+//! the estimate high: a flat 1000x250 cloth takes 1.08 s a step against
+//! 7.5 s estimated.
 //!
 //! The estimate only admits; what holds a job in fact is elsewhere: the
 //! worker counts the bytes it stores per job and fails the job with
@@ -70,9 +74,10 @@ pub const FRAME_STATS: f64 = 1000.0;
 /// A frame's contact list per particle, all in contact (`123456,`), bytes.
 pub const CONTACT_PER_PARTICLE: f64 = 8.0;
 /// Seconds per solver step of a cloth of [`REFERENCE_PARTICLES`] (the
-/// 100² sphere drape through its contact: 27.4 s / 154 steps). The one
-/// number to recalibrate when the solver gets faster.
-pub const SECONDS_PER_STEP_AT_REFERENCE: f64 = 0.18;
+/// 100² sphere drape through its contact on one thread: 8.79 s / 152
+/// steps, 0.058 s). The one number to recalibrate when the solver gets
+/// faster.
+pub const SECONDS_PER_STEP_AT_REFERENCE: f64 = 0.06;
 /// The cloth size the time constant is measured at (100²).
 pub const REFERENCE_PARTICLES: f64 = 10_000.0;
 /// Growth of time per step with particles.
