@@ -41,6 +41,7 @@ mod recheck;
 mod response;
 mod topology;
 
+pub use budget::of_particles as pair_budget;
 pub use ccd::{Closest, Kind, Moving, closest};
 pub use crossings::{count_crossings, count_crossings_culled};
 pub use geometry::{point_triangle, segment_crosses_triangle};

@@ -143,11 +143,11 @@ impl Driver<'_> {
     /// without obstacles or moving pins gains energy (`super::energy`): a
     /// long step through a fast swing (a free edge whipping round) is
     /// where one implicit step overshoots, and the halves resolve it.
-    /// Also when self-collision's pairs passed their budget
-    /// (`selfcollision::budget`), or the sharp-feature stage's corrections
-    /// passed the cloth through itself (`selfcollision::recheck`): the
-    /// halves move the cloth less; at the deepest halving the step is
-    /// kept as it is.
+    /// Also when self-collision's or the sharp-feature stage's pairs
+    /// passed their budget (`selfcollision::budget`), or the sharp-feature
+    /// stage's corrections passed the cloth through itself
+    /// (`selfcollision::recheck`): the halves move the cloth less; at the
+    /// deepest halving the step is kept as it is.
     /// Ordinary steps pay one O(springs) check, and BDF2's one energy
     /// evaluation.
     fn guarded_step(
@@ -166,7 +166,7 @@ impl Driver<'_> {
         let r = self.step(h)?;
         let after = stretch.max_ratio(&self.run.state.x);
         let jumped = after > SUBDIVIDE_STRETCH && after - before > SUBDIVIDE_JUMP;
-        let crowded = r.self_collision.over_budget;
+        let crowded = r.self_collision.over_budget || r.sharp_over_budget;
         let crossed = r.crossed_after_sharp;
         let gained = may_halve && !jumped && !crowded && !crossed && self.gained_energy(slot);
         if may_halve && (jumped || crowded || crossed || gained) {
@@ -189,9 +189,10 @@ impl Driver<'_> {
     ///
     /// A step is redone at half size when its estimate exceeds its share,
     /// its solve fails, it produces non-finite numbers, it stretches an
-    /// edge past [`ADAPTIVE_MAX_STRETCH`], self-collision's pairs passed
-    /// their budget, or the sharp-feature stage's corrections passed the
-    /// cloth through itself (the fail-safes). After
+    /// edge past [`ADAPTIVE_MAX_STRETCH`], self-collision's or the
+    /// sharp-feature stage's pairs passed their budget, or the
+    /// sharp-feature stage's corrections passed the cloth through itself
+    /// (the fail-safes). After
     /// [`ADAPTIVE_GROW_AFTER`] steps in a row whose estimate says a step
     /// twice as large would pass with room to spare (the estimate scales
     /// as `h^q`, `q` the local order: 2 for backward Euler, 3 for BDF2,
@@ -223,6 +224,7 @@ impl Driver<'_> {
                 Ok(r) => {
                     r.solve.status == SolveStatus::Converged
                         && !r.self_collision.over_budget
+                        && !r.sharp_over_budget
                         && !r.crossed_after_sharp
                         && r.error <= share
                         && self.world.model.stretch.max_ratio(&self.run.state.x)

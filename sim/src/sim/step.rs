@@ -51,6 +51,9 @@ pub struct StepReport {
     /// through itself (`selfcollision::recheck`): the driver redoes the
     /// step in halves.
     pub crossed_after_sharp: bool,
+    /// Whether the sharp-feature stage's pairs passed their budget
+    /// (`SharpReport::over_budget`): the driver redoes the step in halves.
+    pub sharp_over_budget: bool,
 }
 
 /// Advances `run` by one step of `h`.
@@ -248,7 +251,7 @@ pub fn step(
                         &mut run.contacts,
                     )
                 });
-                let mut crossed_after_sharp = false;
+                let (mut crossed_after_sharp, mut sharp_over_budget) = (false, false);
                 if let (Some(sharp), Some(obstacles)) = (&mut ws.sharp, &world.obstacles) {
                     clock.run(Stage::SharpFeatures, || {
                         if ws.self_collision.is_some() {
@@ -262,6 +265,7 @@ pub fn step(
                             &mut ws.moved,
                             &mut run.contacts,
                         );
+                        sharp_over_budget = report.over_budget;
                         if let (Some(cloth), true) = (
                             &mut ws.self_collision,
                             report.corrections + report.frozen > 0,
@@ -292,6 +296,7 @@ pub fn step(
                     error,
                     self_collision,
                     crossed_after_sharp,
+                    sharp_over_budget,
                     times: clock.times(),
                 });
             }

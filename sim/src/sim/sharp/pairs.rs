@@ -50,8 +50,15 @@ impl SharpStage {
     }
 
     /// Refits the cloth's hierarchies to the step's motion and lists the
-    /// pairs whose swept boxes come within the kept distance; false if
-    /// there are none.
+    /// pairs whose swept boxes come within the kept distance, at most
+    /// `budget` of them (`over_budget` says whether there were more);
+    /// false if there are none.
+    ///
+    /// The budget bounds the memory a step can take whatever the scene: a
+    /// feature swept across the cloth in one step meets every cloth
+    /// element its box overlaps, and a mesh of many sharp edges moving
+    /// fast through a large cloth would pair each with each (a million
+    /// sharp edges against a 1000x250 cloth's 750,000, in gigabytes).
     pub(super) fn gather(&mut self, x0: &[Vec3]) -> bool {
         // PERF: the features are few and the cloth's elements many, so each
         // element's box is tested against the features' small hierarchies
@@ -67,11 +74,20 @@ impl SharpStage {
         self.vf.clear();
         let (swept, ee, vf) = (&self.swept, &mut self.ee, &mut self.vf);
         let (edge_root, corner_root) = (self.fedge_tree.bounds(), self.corner_tree.bounds());
+        let (mut room, mut over) = (self.budget, false);
+        let mut keep = |list: &mut Vec<(u32, u32)>, pair| {
+            if room > 0 {
+                room -= 1;
+                list.push(pair);
+            } else {
+                over = true;
+            }
+        };
         for (e, [a, b]) in self.edges.iter().enumerate() {
             let bx = swept[*a as usize].union(&swept[*b as usize]);
             if bx.overlaps(&edge_root) {
                 self.fedge_tree
-                    .query(&bx, |f| ee.push((e as u32, f as u32)));
+                    .query(&bx, |f| keep(ee, (e as u32, f as u32)));
             }
         }
         for (t, tri) in self.triangles.iter().enumerate() {
@@ -80,9 +96,10 @@ impl SharpStage {
                 .union(&swept[tri[2] as usize]);
             if bx.overlaps(&corner_root) {
                 self.corner_tree
-                    .query(&bx, |p| vf.push((p as u32, t as u32)));
+                    .query(&bx, |p| keep(vf, (p as u32, t as u32)));
             }
         }
+        self.over_budget = over;
         !(ee.is_empty() && vf.is_empty())
     }
 
@@ -131,5 +148,43 @@ impl SharpStage {
             x: points.each_ref().map(start),
             d: points.each_ref().map(|p| stop(p) - start(p)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::world::World;
+
+    /// A 12² cloth lying over a box's top, swept 5 cm down through it:
+    /// every pair the boxes give, and with a budget one short of them the
+    /// same pairs less the last, and the gather says it passed its budget.
+    #[test]
+    fn a_gather_keeps_at_most_its_budget_of_pairs_and_says_so() {
+        let scene = crate::testing::scene_from_json(
+            r#"{"cloth": {"grid": [12, 12], "size": [0.6, 0.6], "origin": [-0.3, -0.3, 0.21]},
+                "material": "cotton",
+                "obstacles": [{"box": {"center": [0, 0, 0], "size": [0.4, 0.4, 0.4]}}],
+                "duration": 0.1, "fps": 30}"#,
+        );
+        let world = World::new(&scene).expect("builds");
+        let mut stage =
+            SharpStage::new(&world.grid, 1.0, world.obstacles.as_ref()).expect("a box has edges");
+        let x0 = world.grid.rest.clone();
+        stage.end = x0.iter().map(|x| x - Vec3::new(0.0, 0.0, 0.05)).collect();
+        let pairs = |s: &SharpStage| [s.ee.clone(), s.vf.clone()].concat();
+        assert!(stage.gather(&x0) && !stage.over_budget);
+        let all = pairs(&stage);
+        assert!(
+            !stage.ee.is_empty() && !stage.vf.is_empty(),
+            "{}",
+            all.len()
+        );
+        stage.budget = all.len();
+        assert!(stage.gather(&x0) && !stage.over_budget);
+        assert_eq!(pairs(&stage), all);
+        stage.budget = all.len() - 1;
+        assert!(stage.gather(&x0) && stage.over_budget);
+        assert_eq!(pairs(&stage), all[..all.len() - 1]);
     }
 }

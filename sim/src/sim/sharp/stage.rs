@@ -4,7 +4,7 @@
 use crate::cloth::Grid;
 use crate::collision::{Aabb, Bvh, Contact, Obstacles, StepFrame};
 use crate::math::{Real, Vec3};
-use crate::selfcollision::{Kind, closest, segment_crosses_triangle};
+use crate::selfcollision::{Kind, closest, pair_budget, segment_crosses_triangle};
 use crate::solver::{ClothState, Coupling};
 
 /// The distance cloth edges and triangles keep from a sharp feature, as a
@@ -41,6 +41,9 @@ pub struct SharpReport {
     pub corrections: usize,
     /// Particles frozen to an obstacle's motion.
     pub frozen: usize,
+    /// The pairs passed their budget (`SharpStage::gather`): those past it
+    /// were not tested, and the driver redoes the step in halves.
+    pub over_budget: bool,
 }
 
 /// The stage's state: the cloth's edges and triangles with hierarchies
@@ -71,6 +74,10 @@ pub struct SharpStage {
     /// Pairs: (cloth edge, feature edge) and (corner, cloth triangle).
     pub(super) ee: Vec<(u32, u32)>,
     pub(super) vf: Vec<(u32, u32)>,
+    /// The most pairs a gather holds (`selfcollision::pair_budget`)...
+    pub(super) budget: usize,
+    /// ...and whether the last gather passed it.
+    pub(super) over_budget: bool,
     pub(super) end: Vec<Vec3>,
     pub(super) velocity: Vec<Vec3>,
     pub(super) frozen: Vec<bool>,
@@ -158,6 +165,8 @@ impl SharpStage {
             fedge_tree: Bvh::build(&[]),
             ee: Vec::new(),
             vf: Vec::new(),
+            budget: pair_budget(x.len()),
+            over_budget: false,
             end: Vec::new(),
             velocity: Vec::new(),
             frozen: Vec::new(),
@@ -240,7 +249,9 @@ impl SharpStage {
         self.end.clear();
         self.end
             .extend(x0.iter().zip(moved.iter()).map(|(x, d)| x + d));
-        if !self.gather(x0) {
+        let any = self.gather(x0);
+        report.over_budget = self.over_budget;
+        if !any {
             return report;
         }
         let n = x0.len();
