@@ -56,9 +56,9 @@ impl SharpStage {
     ///
     /// The budget bounds the memory a step can take whatever the scene: a
     /// feature swept across the cloth in one step meets every cloth
-    /// element its box overlaps, and a mesh of many sharp edges moving
-    /// fast through a large cloth would pair each with each (a million
-    /// sharp edges against a 1000x250 cloth's 750,000, in gigabytes).
+    /// element its box overlaps, so a mesh of many sharp edges moving
+    /// fast through a large cloth would pair each of its edges with each
+    /// cloth element beneath it.
     pub(super) fn gather(&mut self, x0: &[Vec3]) -> bool {
         // PERF: the features are few and the cloth's elements many, so each
         // element's box is tested against the features' small hierarchies
