@@ -6,6 +6,15 @@ use crate::collision::{Aabb, Obstacles};
 use crate::math::{Real, Vec3};
 use crate::selfcollision::{Kind, Moving};
 
+/// What a gather found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Gathered {
+    /// Some pair.
+    pub(super) any: bool,
+    /// More pairs than the budget: those past it were left out.
+    pub(super) over_budget: bool,
+}
+
 impl SharpStage {
     /// Every obstacle's corners at the step's start and end poses, their
     /// swept boxes and the features' hierarchies refitted to them; nothing
@@ -51,15 +60,14 @@ impl SharpStage {
 
     /// Refits the cloth's hierarchies to the step's motion and lists the
     /// pairs whose swept boxes come within the kept distance, at most
-    /// `budget` of them (`over_budget` says whether there were more);
-    /// false if there are none.
+    /// `budget` of them.
     ///
     /// The budget bounds the memory a step can take whatever the scene: a
     /// feature swept across the cloth in one step meets every cloth
     /// element its box overlaps, so a mesh of many sharp edges moving
     /// fast through a large cloth would pair each of its edges with each
     /// cloth element beneath it.
-    pub(super) fn gather(&mut self, x0: &[Vec3]) -> bool {
+    pub(super) fn gather(&mut self, x0: &[Vec3]) -> Gathered {
         // PERF: the features are few and the cloth's elements many, so each
         // element's box is tested against the features' small hierarchies
         // (most miss at the root) rather than refitting hierarchies over
@@ -99,8 +107,10 @@ impl SharpStage {
                     .query(&bx, |p| keep(vf, (p as u32, t as u32)));
             }
         }
-        self.over_budget = over;
-        !(ee.is_empty() && vf.is_empty())
+        Gathered {
+            any: !(ee.is_empty() && vf.is_empty()),
+            over_budget: over,
+        }
     }
 
     /// A pair's kind, its four points (cloth particle or feature corner)
@@ -173,7 +183,11 @@ mod tests {
         let x0 = world.grid.rest.clone();
         stage.end = x0.iter().map(|x| x - Vec3::new(0.0, 0.0, 0.05)).collect();
         let pairs = |s: &SharpStage| [s.ee.clone(), s.vf.clone()].concat();
-        assert!(stage.gather(&x0) && !stage.over_budget);
+        let whole = Gathered {
+            any: true,
+            over_budget: false,
+        };
+        assert_eq!(stage.gather(&x0), whole);
         let all = pairs(&stage);
         assert!(
             !stage.ee.is_empty() && !stage.vf.is_empty(),
@@ -181,10 +195,16 @@ mod tests {
             all.len()
         );
         stage.budget = all.len();
-        assert!(stage.gather(&x0) && !stage.over_budget);
+        assert_eq!(stage.gather(&x0), whole);
         assert_eq!(pairs(&stage), all);
         stage.budget = all.len() - 1;
-        assert!(stage.gather(&x0) && stage.over_budget);
+        assert_eq!(
+            stage.gather(&x0),
+            Gathered {
+                any: true,
+                over_budget: true
+            }
+        );
         assert_eq!(pairs(&stage), all[..all.len() - 1]);
     }
 }

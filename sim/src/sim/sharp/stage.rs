@@ -74,10 +74,8 @@ pub struct SharpStage {
     /// Pairs: (cloth edge, feature edge) and (corner, cloth triangle).
     pub(super) ee: Vec<(u32, u32)>,
     pub(super) vf: Vec<(u32, u32)>,
-    /// The most pairs a gather holds (`selfcollision::pair_budget`)...
+    /// The most pairs a gather holds (`selfcollision::pair_budget`).
     pub(super) budget: usize,
-    /// ...and whether the last gather passed it.
-    pub(super) over_budget: bool,
     pub(super) end: Vec<Vec3>,
     pub(super) velocity: Vec<Vec3>,
     pub(super) frozen: Vec<bool>,
@@ -166,7 +164,6 @@ impl SharpStage {
             ee: Vec::new(),
             vf: Vec::new(),
             budget: pair_budget(x.len()),
-            over_budget: false,
             end: Vec::new(),
             velocity: Vec::new(),
             frozen: Vec::new(),
@@ -191,7 +188,7 @@ impl SharpStage {
         self.corners(obstacles, time, 0.0);
         self.end.clear();
         self.end.extend_from_slice(x0);
-        if !self.gather(x0) {
+        if !self.gather(x0).any {
             return;
         }
         for kind in [Kind::VertexFace, Kind::EdgeEdge] {
@@ -249,9 +246,9 @@ impl SharpStage {
         self.end.clear();
         self.end
             .extend(x0.iter().zip(moved.iter()).map(|(x, d)| x + d));
-        let any = self.gather(x0);
-        report.over_budget = self.over_budget;
-        if !any {
+        let gathered = self.gather(x0);
+        report.over_budget = gathered.over_budget;
+        if !gathered.any {
             return report;
         }
         let n = x0.len();
