@@ -120,7 +120,11 @@ fn sphere_drape_30_rests_on_the_sphere_and_drapes_below_the_equator() {
 /// creep: the particle at the middle of the cloth moves less than 1 mm
 /// from 2 s to 5 s, in the last second no frame makes or releases more
 /// than 2 contacts (the speed issue's settled drape), and the kinetic
-/// energy falls below 2 % of its value at 1 s (0.8 % here). While sliding
+/// energy, averaged over the last second, falls below 2 % of its value
+/// at 1 s (0.9–1.1 %). Averaged: a single frame's is set by the free
+/// edge's flicks, up to 5 % of it for a frame (13–17 µJ, seen at 4.2 s
+/// on one trajectory and at 5 s on another that differs from it only in
+/// round-off, docs/benchmarks.md 1ah). While sliding
 /// contacts kept the load that had broken them loose in the landing, they
 /// never stuck again, and the drape crept off the sphere: 16 mm in those
 /// 3 s, 65 mm by 8 s, faster and faster (docs/benchmarks.md 1m).
@@ -143,13 +147,12 @@ fn a_drape_on_a_sphere_comes_to_rest_and_stays() {
             s.released_contacts
         );
     }
-    let (first, last) = (&stats[1..61], &stats[stats.len() - 60..]);
-    let energy = |s: &[FrameStats]| s.last().map_or(0.0, |f| f.kinetic_energy);
+    let at_one = stats[60].kinetic_energy;
+    let last = &stats[stats.len() - 60..];
+    let mean = last.iter().map(|f| f.kinetic_energy).sum::<Real>() / last.len() as Real;
     assert!(
-        energy(last) < 0.02 * energy(first),
-        "kinetic energy {:e} J at 5 s against {:e} J at 1 s",
-        energy(last),
-        energy(first)
+        mean < 0.02 * at_one,
+        "kinetic energy {mean:e} J over the last second against {at_one:e} J at 1 s"
     );
 }
 

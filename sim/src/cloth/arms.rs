@@ -70,6 +70,22 @@ impl ArmTable {
                     let [a, b, c] = el.idx;
                     [arm(b, a), arm(b, c)]
                 })
+                .collect::<Vec<_>>()
+        });
+        // PERF: edges in the order of their particles, not of the elements
+        // that first named them (a weft hinge's arms, numbered line by line,
+        // lay a grid row apart): the assembly, which adds the elements row
+        // by row, then reads the table in order.
+        let mut order: Vec<usize> = (0..table.ends.len()).collect();
+        order.sort_unstable_by_key(|&e| table.ends[e]);
+        let mut renumbered = vec![0; order.len()];
+        for (new, &old) in order.iter().enumerate() {
+            renumbered[old] = new;
+        }
+        table.ends = order.iter().map(|&e| table.ends[e]).collect();
+        let refs = refs.map(|refs| {
+            refs.into_iter()
+                .map(|pair| pair.map(|r| ArmRef::new(renumbered[r.edge()], r.backwards())))
                 .collect()
         });
         table.measured = vec![None; table.ends.len()];
