@@ -13,8 +13,6 @@
 //! (`x - y = -(y - x)`, `|-d| = |d|`, `(-d) / r = -(d / r)`), so an
 //! element's geometry is bit for bit the one it would measure itself.
 
-use std::collections::HashMap;
-
 use super::angle::{AngleElement, Arm};
 use crate::math::{Real, Vec3};
 
@@ -51,16 +49,25 @@ impl ArmTable {
     /// The table of every arm of `forces`' elements, and for each force,
     /// each element's two arms (`b -> a`, `b -> c` for `[a, b, c]`).
     pub fn new<const N: usize>(forces: [&[AngleElement]; N]) -> (Self, [Vec<[ArmRef; 2]>; N]) {
-        let mut table = Self::default();
-        let mut index: HashMap<[u32; 2], usize> = HashMap::new();
-        let mut arm = |from: usize, to: usize| {
-            let (lo, hi) = (from.min(to) as u32, from.max(to) as u32);
-            let edge = *index.entry([lo, hi]).or_insert_with(|| {
-                table.ends.push([lo, hi]);
-                table.ends.len() - 1
-            });
-            // Forwards is `x_hi - x_lo`: the arm `x_to - x_from` when `to`
-            // is the higher index.
+        let ends_of = |from: usize, to: usize| [from.min(to) as u32, from.max(to) as u32];
+        // PERF: edges in the order of their particles, not of the elements
+        // that first named them (a weft hinge's arms, numbered line by line,
+        // lay a grid row apart): the assembly, which adds the elements row
+        // by row, then reads the table in order.
+        let mut ends: Vec<[u32; 2]> = forces
+            .iter()
+            .flat_map(|elements| elements.iter())
+            .flat_map(|el| {
+                let [a, b, c] = el.idx;
+                [ends_of(b, a), ends_of(b, c)]
+            })
+            .collect();
+        ends.sort_unstable();
+        ends.dedup();
+        // Forwards is `x_hi - x_lo`: the arm `x_to - x_from` when `to` is
+        // the higher index.
+        let arm = |from: usize, to: usize| {
+            let edge = ends.binary_search(&ends_of(from, to)).unwrap_or_default();
             ArmRef::new(edge, to < from)
         };
         let refs = forces.map(|elements| {
@@ -70,26 +77,10 @@ impl ArmTable {
                     let [a, b, c] = el.idx;
                     [arm(b, a), arm(b, c)]
                 })
-                .collect::<Vec<_>>()
-        });
-        // PERF: edges in the order of their particles, not of the elements
-        // that first named them (a weft hinge's arms, numbered line by line,
-        // lay a grid row apart): the assembly, which adds the elements row
-        // by row, then reads the table in order.
-        let mut order: Vec<usize> = (0..table.ends.len()).collect();
-        order.sort_unstable_by_key(|&e| table.ends[e]);
-        let mut renumbered = vec![0; order.len()];
-        for (new, &old) in order.iter().enumerate() {
-            renumbered[old] = new;
-        }
-        table.ends = order.iter().map(|&e| table.ends[e]).collect();
-        let refs = refs.map(|refs| {
-            refs.into_iter()
-                .map(|pair| pair.map(|r| ArmRef::new(renumbered[r.edge()], r.backwards())))
                 .collect()
         });
-        table.measured = vec![None; table.ends.len()];
-        (table, refs)
+        let measured = vec![None; ends.len()];
+        (Self { ends, measured }, refs)
     }
 
     /// Measures every arm at positions `x`, the arm `e = x_hi - x_lo`

@@ -55,7 +55,7 @@ pub struct System {
 const TERMS: usize = 5;
 
 /// The force terms, in the order of the slot tables and of each tile's runs.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Term {
     Stretch,
     Damping,
@@ -173,8 +173,9 @@ fn band_order(
     rows: &Range<usize>,
     springs_damped: bool,
 ) -> (Vec<u32>, Vec<(Term, Range<usize>)>) {
-    let per_term = Term::ALL.map(|term| {
-        let mut elements = match term {
+    let mut order: Vec<(usize, Term, u32)> = Vec::new();
+    for term in Term::ALL {
+        let elements = match term {
             Term::Stretch => touching(&model.stretch, rows),
             Term::Damping if springs_damped => Vec::new(),
             Term::Damping => touching(&model.damping, rows),
@@ -182,31 +183,20 @@ fn band_order(
             Term::Shear => touching(&model.shear, rows),
             Term::Drag => touching(&model.drag, rows),
         };
-        // Stable: element order within a tile.
-        elements.sort_by_key(|&(tile, _)| tile);
-        elements
-    });
-    let tiles = per_term
-        .iter()
-        .filter_map(|els| els.last().map(|&(tile, _)| tile + 1))
-        .max()
-        .unwrap_or(0);
-    let mut next = [0usize; TERMS];
-    let (mut elements, mut runs) = (Vec::new(), Vec::new());
-    for tile in 0..tiles {
-        for term in Term::ALL {
-            let (t, start) = (term as usize, elements.len());
-            let els = &per_term[t];
-            while let Some(&(_, e)) = els.get(next[t]).filter(|&&(k, _)| k == tile) {
-                elements.push(e);
-                next[t] += 1;
-            }
-            if elements.len() > start {
-                runs.push((term, start..elements.len()));
-            }
-        }
+        order.extend(elements.into_iter().map(|(tile, e)| (tile, term, e)));
     }
-    (elements, runs)
+    // Stable: within a tile, the terms in order, each in element order.
+    order.sort_by_key(|&(tile, term, _)| (tile, term as usize));
+    let mut runs: Vec<(Term, Range<usize>)> = Vec::new();
+    let mut last_tile = usize::MAX;
+    for (k, &(tile, term, _)) in order.iter().enumerate() {
+        match runs.last_mut() {
+            Some((t, run)) if *t == term && last_tile == tile => run.end = k + 1,
+            _ => runs.push((term, k..k + 1)),
+        }
+        last_tile = tile;
+    }
+    (order.into_iter().map(|(_, _, e)| e).collect(), runs)
 }
 
 impl System {
