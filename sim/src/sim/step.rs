@@ -94,6 +94,9 @@ pub fn step(
         // end, are not). Sphere-drape-100 redoes 68 of its first 120 steps.
         let kept = (redos > 0 && !scheme.is_two_step())
             .then(|| std::mem::take(&mut ws.constraints.couplings));
+        if kept.is_some() {
+            ws.redo_impulse.clone_from(&ws.constraints.impulse);
+        }
         clock.run(Stage::Constrain, || {
             world
                 .pins
@@ -119,6 +122,7 @@ pub fn step(
         // over the team (gathered beside the assembly instead, each stage
         // kept to one core and sphere-drape-100's assembly took 8.7 s
         // where its bands on both cores take 4.2 s).
+        let redone = kept.is_some();
         match kept {
             Some(couplings) => ws.constraints.couplings = couplings,
             None => couple(
@@ -131,19 +135,20 @@ pub fn step(
                 (&run.state.x, Some(&run.last_moved)),
             ),
         }
-        clock.run(Stage::Assemble, || {
-            ws.integrator.assemble_forces(
-                &physics,
-                &run.state,
-                &ws.constraints.y,
-                &ws.constraints.impulse,
-                &scheme,
-            )
-        });
-        clock.run(Stage::Assemble, || {
-            ws.integrator
-                .add_couplings(&ws.constraints.couplings, &run.state, &scheme)
-        });
+        // A redo's `A` is the first solve's: its `b` is patched for the
+        // new contacts (`Integrator::patch_for_redo`).
+        let patched = redone
+            && clock.run(Stage::Assemble, || {
+                let (c, old) = (&ws.constraints, &ws.redo_impulse);
+                ws.integrator
+                    .patch_for_redo(&physics, &run.state, c, old, &scheme)
+            });
+        if !patched {
+            clock.run(Stage::Assemble, || {
+                ws.integrator
+                    .assemble(&physics, &run.state, &ws.constraints, &scheme)
+            });
+        }
         clock.run(Stage::Precondition, || {
             ws.integrator.precondition(
                 &physics,

@@ -36,6 +36,9 @@ pub struct Workspace {
     /// The positions the self-collision stage left, before the
     /// sharp-feature stage's corrections (`selfcollision::recheck`).
     pub before_sharp: Vec<crate::math::Vec3>,
+    /// The first solve's friction impulses while a step is redone
+    /// (`Integrator::patch_for_redo`).
+    pub redo_impulse: Vec<crate::math::Vec3>,
     /// The cloth's self-collision (`None` when the scene turns it off).
     pub self_collision: Option<SelfCollision>,
     /// The cloth's mesh for the crossing count of every frame when
@@ -77,6 +80,7 @@ impl Workspace {
             moved: vec![crate::math::Vec3::zeros(); n],
             solved: Vec::new(),
             before_sharp: Vec::new(),
+            redo_impulse: Vec::new(),
             self_collision: world
                 .scene
                 .cloth

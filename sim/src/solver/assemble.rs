@@ -254,13 +254,8 @@ impl System {
 
     /// Writes `A` and `b` for one step (eq. [20]).
     pub fn assemble(&mut self, model: &ForceModel, input: &AssemblyInput<'_>) {
-        let h = input.scheme.h_eff();
         for (i, w) in self.w.iter_mut().enumerate() {
-            *w = if input.predicted {
-                input.y[i]
-            } else {
-                input.v[i] * h + input.scheme.carry(i) + input.y[i]
-            };
+            *w = displacement(input, i);
         }
         let w = &self.w[..];
         // PERF: each arm measured once, not by each of the up to six
@@ -288,6 +283,16 @@ impl System {
                 assemble_band(model, input, w, &tables, band, values, b);
             },
         );
+    }
+}
+
+/// The displacement `K` multiplies in `b` at particle `i` ([`System::w`]).
+#[inline]
+pub(super) fn displacement(input: &AssemblyInput<'_>, i: usize) -> Vec3 {
+    if input.predicted {
+        input.y[i]
+    } else {
+        input.v[i] * input.scheme.h_eff() + input.scheme.carry(i) + input.y[i]
     }
 }
 

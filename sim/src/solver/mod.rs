@@ -31,6 +31,7 @@ mod local_error;
 pub mod mpcg;
 pub mod multigrid;
 mod precond;
+mod redo;
 mod scheme;
 mod sink;
 mod state;
