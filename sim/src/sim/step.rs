@@ -5,7 +5,7 @@
 //! | constrain | pins -> filters `S`, targets `z`, corrections `y` |
 //! | collision prepare | contacts and predicted crossings -> `S`, `z`, `y`, friction impulses |
 //! | couplings | pairs near obstacles' sharp features, and layers of cloth within the thickness -> springs |
-//! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]), then the springs into `A`, `b` |
+//! | assemble | forces and Jacobians -> `A dv = b` (eq. [20]), then the springs into `A`, `b`; a redo keeps `A` and patches `b` |
 //! | precondition | the warm start's residual; the preconditioner from `A` unless that already converged |
 //! | solve | the modified PCG (filtered residual) |
 //! | update | `v += dv`, `x += p + h' v + y`, finiteness |
