@@ -94,7 +94,8 @@ pub fn step(
         // end, are not). Sphere-drape-100 redoes 68 of its first 120 steps.
         let kept = (redos > 0 && !scheme.is_two_step())
             .then(|| std::mem::take(&mut ws.constraints.couplings));
-        if kept.is_some() {
+        let redone = kept.is_some();
+        if redone {
             ws.redo_impulse.clone_from(&ws.constraints.impulse);
         }
         clock.run(Stage::Constrain, || {
@@ -122,7 +123,6 @@ pub fn step(
         // over the team (gathered beside the assembly instead, each stage
         // kept to one core and sphere-drape-100's assembly took 8.7 s
         // where its bands on both cores take 4.2 s).
-        let redone = kept.is_some();
         match kept {
             Some(couplings) => ws.constraints.couplings = couplings,
             None => couple(

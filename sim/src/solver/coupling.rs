@@ -62,6 +62,20 @@ pub struct Coupling {
     pub stiffness: Real,
 }
 
+impl Coupling {
+    /// The slots in use (an unused slot has weight 0).
+    pub(super) fn live(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..4).filter(|&k| self.weights[k] != 0.0)
+    }
+
+    /// `Σ c_k v_k`: the pair's closest point of `v` (`d = n · point(x)`).
+    pub(super) fn point(&self, v: &[Vec3]) -> Vec3 {
+        self.live()
+            .map(|k| v[self.particles[k] as usize] * self.weights[k])
+            .sum()
+    }
+}
+
 /// A block `A_kl = coef n nᵀ` of a coupling between particles that no
 /// force couples, outside `A`'s pattern: applied matrix-free after `A`'s
 /// own product ([`mul_add`]).
@@ -108,25 +122,18 @@ pub(super) fn add(
     let first = boost.len();
     for (id, c) in couplings.iter().enumerate() {
         let n = c.normal;
-        let live = |k: &usize| c.weights[*k] != 0.0;
-        let point = |v: &[Vec3]| -> Vec3 {
-            (0..4)
-                .filter(live)
-                .map(|k| v[c.particles[k] as usize] * c.weights[k])
-                .sum()
-        };
-        let short = c.target - n.dot(&point(x));
+        let short = c.target - n.dot(&c.point(x));
         if short <= 0.0 {
             continue;
         }
-        let along_w = n.dot(&point(w));
+        let along_w = n.dot(&c.point(w));
         let scale = c.stiffness * h * h;
         let nn = outer(&n, &n) * scale;
         // Either every block goes into `A`, or only the diagonal ones: a
         // rank-one term with some blocks dropped is indefinite, and `A`
         // is what the preconditioner is built from.
-        let all_in = (0..4).filter(live).all(|k| {
-            (0..4).filter(live).all(|l| {
+        let all_in = c.live().all(|k| {
+            c.live().all(|l| {
                 a.slot(c.particles[k] as usize, c.particles[l] as usize)
                     .is_some()
             })
@@ -136,11 +143,11 @@ pub(super) fn add(
             .iter()
             .fold((0.0, 0.0), |(s2, s4), w| (s2 + w * w, s4 + w * w * w * w));
         let extra = s2 * s2 / s4 - 1.0;
-        for k in (0..4).filter(live) {
+        for k in c.live() {
             let p = c.particles[k] as usize;
             let ck = c.weights[k];
             b[p] += n * (h * c.stiffness * ck * (short - along_w));
-            for l in (0..4).filter(live) {
+            for l in c.live() {
                 let q = c.particles[l] as usize;
                 let cl = c.weights[l];
                 match a.slot(p, q).filter(|_| all_in || p == q) {

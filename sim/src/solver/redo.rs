@@ -172,17 +172,11 @@ fn add_term<F: Force>(
 /// `-h' s c_k (n · Σ c_l Δw_l) n`.
 fn add_couplings(couplings: &[Coupling], x: &[Vec3], dw: &[Vec3], h: Real, b: &mut [Vec3]) {
     for c in couplings {
-        let point = |v: &[Vec3]| -> Vec3 {
-            (0..4)
-                .filter(|&k| c.weights[k] != 0.0)
-                .map(|k| v[c.particles[k] as usize] * c.weights[k])
-                .sum()
-        };
-        let along = c.normal.dot(&point(dw));
-        if along == 0.0 || c.target - c.normal.dot(&point(x)) <= 0.0 {
+        let along = c.normal.dot(&c.point(dw));
+        if along == 0.0 || c.target - c.normal.dot(&c.point(x)) <= 0.0 {
             continue;
         }
-        for k in (0..4).filter(|&k| c.weights[k] != 0.0) {
+        for k in c.live() {
             b[c.particles[k] as usize] -= c.normal * (h * c.stiffness * c.weights[k] * along);
         }
     }
