@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod commands;
+pub mod huge_pages;
 pub mod logging;
 pub mod service;
 pub mod specfile;

@@ -8,6 +8,10 @@ use drapery::commands;
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    if matches!(cli.command, Command::Run(_) | Command::Bench(_)) {
+        // Executes the command again with huge pages where it lacks them.
+        drapery::huge_pages::ensure();
+    }
     drapery::logging::init(cli.log_json);
     if let Err(e) = drapery::threads::init(cli.threads) {
         eprintln!("error: --threads: {e}");
