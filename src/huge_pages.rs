@@ -7,22 +7,22 @@
 //! 240 kB, some 5,000 pages of 4 KiB, past the processor's TLB: every few
 //! cache lines a page walk. Most hosts ship transparent huge pages in
 //! `madvise` mode (given to a region only when asked for), and glibc asks
-//! only when its tunable `glibc.malloc.hugetlb=1` is set; in `always`
-//! mode the heap has them already, and glibc then asks nothing. Measured on sphere-drape-100's first
-//! 0.5 s, one thread, three alternated runs each (docs/benchmarks.md 1aj):
-//! solve stage 7.65–7.93 s → 6.17–6.43 s, wall 14.2–15.0 s → 12.4–12.9 s.
-//! Advising only the blocks of 2 MiB and more, from a global allocator,
-//! moved 10 MB onto huge pages instead of 51 MB and left the solve at
-//! 7.1–7.8 s: the vectors and the line packs matter as much as the matrix.
+//! only when its tunable `glibc.malloc.hugetlb=1` is set; in `always` mode
+//! the heap has them already, and glibc then asks nothing. Measured on
+//! sphere-drape-100's first 0.5 s, one thread, three alternated runs each
+//! (docs/benchmarks.md 1aj): solve stage 7.65–7.93 s → 6.17–6.43 s, wall
+//! 14.2–15.0 s → 12.4–12.9 s. Advising only the blocks of 2 MiB and more,
+//! from a global allocator, moved 10 MB onto huge pages instead of 51 MB
+//! and left the solve at 7.1–7.8 s: the vectors and the line packs matter
+//! as much as the matrix.
 //!
 //! How: glibc reads its tunables once, when the program starts, so a
 //! compute command whose environment lacks the tunable executes itself
 //! again with it added (the same process, arguments and `argv[0]`). Where
 //! that cannot help or cannot be done (not glibc, transparent huge pages
 //! off or always on, the tunable already set either way, no path to the
-//! executable)
-//! it carries on as it is. Placement changes no result: the solver's
-//! arithmetic does not depend on addresses.
+//! executable) it carries on as it is. Placement changes no result: the
+//! solver's arithmetic does not depend on addresses.
 
 /// glibc's tunable for transparent huge pages in `malloc` (glibc ≥ 2.35;
 /// older versions ignore it).
@@ -49,25 +49,29 @@ pub fn thp_on_request(mode: &str) -> bool {
     mode.contains("[madvise]")
 }
 
+/// [`thp_on_request`] of this machine's kernel (false where it does not
+/// say).
+pub fn kernel_gives_on_request() -> bool {
+    std::fs::read_to_string(THP_MODE).is_ok_and(|m| thp_on_request(&m))
+}
+
 /// Executes this program again with huge pages asked for, if it runs on
-/// glibc without them and the kernel gives them on request; returns only when it did
-/// not (module doc). Call first thing in `main`, before any thread starts.
+/// glibc without them and the kernel gives them on request; returns only
+/// when it did not (module doc). Call first thing in `main`, before any thread starts.
 pub fn ensure() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
         use std::os::unix::process::CommandExt;
-        let current = std::env::var_os("GLIBC_TUNABLES");
-        let current = match &current {
-            Some(c) => match c.to_str() {
-                Some(c) => Some(c),
-                None => return,
-            },
+        // A value that is not UTF-8 is the user's: left as it is.
+        let current = match std::env::var_os("GLIBC_TUNABLES").map(|c| c.into_string()) {
             None => None,
+            Some(Ok(c)) => Some(c),
+            Some(Err(_)) => return,
         };
-        let Some(value) = tunables_with_huge_pages(current) else {
+        let Some(value) = tunables_with_huge_pages(current.as_deref()) else {
             return;
         };
-        if !std::fs::read_to_string(THP_MODE).is_ok_and(|m| thp_on_request(&m)) {
+        if !kernel_gives_on_request() {
             return;
         }
         let Ok(exe) = std::env::current_exe() else {

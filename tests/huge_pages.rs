@@ -21,8 +21,7 @@ fn applies() -> bool {
         });
     cfg!(all(target_os = "linux", target_env = "gnu"))
         && glibc.is_some_and(|v| v >= (2, 35))
-        && std::fs::read_to_string("/sys/kernel/mm/transparent_hugepage/enabled")
-            .is_ok_and(|m| drapery::huge_pages::thp_on_request(&m))
+        && drapery::huge_pages::kernel_gives_on_request()
 }
 
 /// Runs `drapery run` on a free fall of about a second with
