@@ -96,28 +96,40 @@ fn check_syntax(text: &str) -> Result<(), SpecLoadError> {
 /// scene can be built (`World::check`: an obstacle the cloth starts
 /// inside is refused by name, like any other bad field).
 pub fn load(text: &str, limits: &Limits) -> Result<Scene, SpecLoadError> {
-    load_spec(text, limits).map(|(scene, _)| scene)
+    load_spec(text, limits, |_| Ok::<_, SpecLoadError>(())).map(|(scene, _)| scene)
 }
 
 /// [`load`], with the spec as read: what the service stores
 /// (re-serialised, so the stored text is as long as what it says, not as
 /// the body that said it: white space or a number of twenty million
-/// digits cost nothing to store or to read back).
-pub fn load_spec(text: &str, limits: &Limits) -> Result<(Scene, Spec), SpecLoadError> {
+/// digits cost nothing to store or to read back). `admit` sees the valid
+/// scene before its obstacles are built to check it, which for meshes of
+/// millions of triangles takes time and memory the service first weighs.
+pub fn load_spec<E: From<SpecLoadError>>(
+    text: &str,
+    limits: &Limits,
+    admit: impl FnOnce(&Scene) -> Result<(), E>,
+) -> Result<(Scene, Spec), E> {
     let spec = parse(text)?;
     let scene = spec.validate(limits).map_err(SpecLoadError::Invalid)?;
+    admit(&scene)?;
     World::check(&scene).map_err(unbuildable)?;
     Ok((scene, spec))
 }
 
-/// [`load`] for a run: the simulation built from the scene, refused as
-/// `load` refuses it. Its obstacles are built once: `World::check` would
-/// build them only to throw them away (a 159,200-triangle mesh: 0.4 s).
-pub fn load_simulation(text: &str, limits: &Limits) -> Result<Simulation, SpecLoadError> {
-    let scene = parse(text)?
+/// Parses and validates `text` under `limits`, without building the
+/// scene: for a run, which checks what it needs before [`build`] builds
+/// the obstacles once (`World::check` in [`load`] would build them only
+/// to throw them away: a 159,200-triangle mesh, 0.4 s).
+pub fn load_scene(text: &str, limits: &Limits) -> Result<Scene, SpecLoadError> {
+    parse(text)?
         .validate(limits)
-        .map_err(SpecLoadError::Invalid)?;
-    Simulation::new(&scene).map_err(unbuildable)
+        .map_err(SpecLoadError::Invalid)
+}
+
+/// The simulation of a validated scene, refused as [`load`] refuses it.
+pub fn build(scene: &Scene) -> Result<Simulation, SpecLoadError> {
+    Simulation::new(scene).map_err(unbuildable)
 }
 
 /// A scene that cannot be built, as the spec error it is: an obstacle
@@ -133,9 +145,7 @@ fn unbuildable(e: SimError) -> SpecLoadError {
 /// A spec stored by the service, which [`load`] accepted when it was
 /// submitted: parsed and validated again, not built.
 pub fn load_stored(text: &str) -> Result<Scene, SpecLoadError> {
-    parse(text)?
-        .validate(&Limits::default())
-        .map_err(SpecLoadError::Invalid)
+    load_scene(text, &Limits::default())
 }
 
 #[cfg(test)]
@@ -180,9 +190,27 @@ mod tests {
         );
         assert!(e[0].message.contains("1.000e-1 m"), "{e:?}");
         // A run builds the simulation once and refuses it alike.
-        let run = load_simulation(&spec(&format!("{floor}, {sphere}")), &Limits::default());
-        assert_eq!(run.expect_err("refused").errors(), e);
-        assert!(load_simulation(&spec(plane), &Limits::default()).is_ok());
+        let run = |text: &str| load_scene(text, &Limits::default()).and_then(|s| build(&s));
+        let refused = run(&spec(&format!("{floor}, {sphere}")));
+        assert_eq!(refused.expect_err("refused").errors(), e);
+        assert!(run(&spec(plane)).is_ok());
+        // The service weighs a valid scene before its obstacles are built:
+        // a refusal there comes first.
+        #[derive(Debug, PartialEq)]
+        enum Weighed {
+            Over,
+            Load,
+        }
+        impl From<SpecLoadError> for Weighed {
+            fn from(_: SpecLoadError) -> Self {
+                Self::Load
+            }
+        }
+        let inside = spec(&format!("{floor}, {sphere}"));
+        let over = load_spec(&inside, &Limits::default(), |_| Err(Weighed::Over));
+        assert_eq!(over.map(drop), Err(Weighed::Over));
+        let built = load_spec(&inside, &Limits::default(), |_| Ok(()));
+        assert_eq!(built.map(drop), Err(Weighed::Load));
     }
 
     /// An object given as the sequence of its fields is refused: serde
@@ -202,7 +230,9 @@ mod tests {
         let mut read = 0;
         for entry in std::fs::read_dir(dir).expect("examples") {
             let text = std::fs::read_to_string(entry.expect("entry").path()).expect("scene");
-            let (scene, spec) = load_spec(&text, &Limits::default()).expect("loads");
+            let (scene, spec) =
+                load_spec(&text, &Limits::default(), |_| Ok::<_, SpecLoadError>(()))
+                    .expect("loads");
             let stored = serde_json::to_string(&spec).expect("serialises");
             assert_eq!(parse(&stored).expect("parses"), spec);
             assert_eq!(load_stored(&stored).expect("loads"), scene);
@@ -402,6 +432,50 @@ mod tests {
         let e = load(&with(tetra), &few)
             .expect_err("over the limit")
             .errors();
+        assert!(e[0].message.contains("limit of 3"), "{e:?}");
+    }
+
+    /// The triangle limit holds summed over obstacles, an OBJ's faces are
+    /// counted before it is parsed, and the obstacles are bounded in
+    /// number before any is looked into.
+    #[test]
+    fn obstacles_are_bounded_in_all() {
+        let with = |obstacles: &[String]| {
+            OK.replace(
+                "\"fps\": 10",
+                &format!("\"fps\": 10, \"obstacles\": [{}]", obstacles.join(",")),
+            )
+        };
+        let tetra = r#"{"mesh": {"obj": "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"}}"#;
+        let limits = Limits {
+            max_triangles: 6,
+            max_obstacles: 3,
+            ..Limits::default()
+        };
+        load(&with(&[tetra.to_owned()]), &limits).expect("4 of 6 triangles");
+        let e = load(&with(&[tetra.to_owned(), tetra.to_owned()]), &limits)
+            .expect_err("8 of 6 triangles")
+            .errors();
+        assert_eq!(e.len(), 1, "{e:?}");
+        assert_eq!(e[0].path, "obstacles[1].mesh.obj", "{e:?}");
+        assert!(e[0].message.contains("make 8"), "{e:?}");
+        // One face of 1,000 corners is 998 triangles, refused unparsed.
+        let corners: Vec<String> = (1..=1000).map(|k| k.to_string()).collect();
+        let fan = format!(
+            r#"{{"mesh": {{"obj": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf {}\n"}}}}"#,
+            corners.join(" ")
+        );
+        let e = load(&with(&[fan]), &limits)
+            .expect_err("998 triangles")
+            .errors();
+        assert_eq!(e[0].path, "obstacles[0].mesh.obj", "{e:?}");
+        assert!(e[0].message.starts_with("998 triangles"), "{e:?}");
+        let plane = r#"{"plane": {"point": [0, 0, -1], "normal": [0, 0, 1]}}"#.to_owned();
+        load(&with(&vec![plane.clone(); 3]), &limits).expect("3 obstacles");
+        let e = load(&with(&vec![plane; 4]), &limits)
+            .expect_err("4 obstacles")
+            .errors();
+        assert_eq!(e[0].path, "obstacles", "{e:?}");
         assert!(e[0].message.contains("limit of 3"), "{e:?}");
     }
 }

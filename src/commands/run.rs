@@ -15,16 +15,42 @@ use anyhow::Context;
 use drapery_sim::export::{Pc2Writer, write_glb, write_obj};
 use drapery_sim::math::Vec3;
 use drapery_sim::sim::{Control, Progress};
-use drapery_sim::spec::Limits;
+use drapery_sim::spec::{Limits, Scene, SpecError, SpecErrors};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::{Format, RunArgs};
-use crate::specfile;
+use crate::specfile::{self, SpecLoadError};
+
+/// A `.glb` is held in memory until the run ends and then written whole,
+/// so one that glTF's 4 GiB cannot hold is refused before the run, at the
+/// field that sets the frame count.
+fn glb_fits(scene: &Scene) -> Result<(), SpecLoadError> {
+    let particles = (scene.cloth.nu * scene.cloth.nv) as f64;
+    let frames = scene.frames + 1;
+    // Each frame a morph target (12 B a particle) and its sparse weight key.
+    let bytes = frames as f64 * (12.0 * particles + 64.0) + 24.0 * particles;
+    if bytes <= f64::from(u32::MAX) {
+        return Ok(());
+    }
+    Err(SpecLoadError::Invalid(SpecErrors(vec![SpecError {
+        path: "fps".into(),
+        message: format!(
+            "{frames} frames of {particles} particles make a {:.1} GiB .glb, over glTF's 4 GiB: fewer frames, or --format pc2 or obj",
+            bytes / f64::from(1u32 << 30)
+        ),
+    }])))
+}
 
 /// Runs the job; exit 2 for an invalid spec, 1 for a failed run.
 pub fn run(args: &RunArgs) -> anyhow::Result<ExitCode> {
     let text = super::files::read_spec(&args.spec)?;
-    let mut sim = match specfile::load_simulation(&text, &Limits::default()) {
+    let loaded = specfile::load_scene(&text, &Limits::default()).and_then(|scene| {
+        if args.format == Format::Glb {
+            glb_fits(&scene)?;
+        }
+        specfile::build(&scene)
+    });
+    let mut sim = match loaded {
         Ok(s) => s,
         Err(e) => {
             for err in e.errors() {
@@ -239,5 +265,30 @@ impl<'a> FrameSink<'a> {
                 Ok(())
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `.glb` glTF cannot hold is refused before the run, naming the
+    /// field; one it can is let through.
+    #[test]
+    fn a_glb_over_four_gib_is_refused_before_the_run() {
+        let scene = |n: u32, duration: f64| {
+            let text = format!(
+                r#"{{"cloth": {{"grid": [{n}, {n}], "size": [1, 1]}}, "material": "cotton",
+                    "duration": {duration}, "fps": 10}}"#
+            );
+            specfile::load_scene(&text, &Limits::default()).expect("valid")
+        };
+        glb_fits(&scene(30, 2.0)).expect("a small drape");
+        glb_fits(&scene(1000, 30.0)).expect("301 frames of 10^6 particles: 3.4 GiB");
+        let e = glb_fits(&scene(1000, 40.0))
+            .expect_err("401 frames: 4.5 GiB")
+            .errors();
+        assert_eq!(e[0].path, "fps", "{e:?}");
+        assert!(e[0].message.contains("over glTF's 4 GiB"), "{e:?}");
     }
 }

@@ -68,6 +68,10 @@ pub enum ConfigError {
     Timeout(&'static str),
     #[error("--job-memory-budget, --job-disk-budget and --job-time-budget must be positive")]
     NonPositiveBudget,
+    #[error(
+        "{flag} must be at most {core}: stored jobs are loaded again under the solver's own limits"
+    )]
+    AboveCore { flag: &'static str, core: f64 },
     #[error(transparent)]
     Key(#[from] KeyError),
 }
@@ -126,18 +130,41 @@ impl Config {
             return Err(ConfigError::NonPositiveBudget);
         }
         let core = Limits::default();
+        let limits = Limits {
+            max_particles: a.max_particles,
+            max_triangles: a.max_triangles,
+            max_duration: a.max_duration,
+            max_frames: a.max_frames,
+            max_steps: core.max_steps,
+            max_obstacles: core.max_obstacles,
+        };
+        // A job admitted under the service's limits is loaded again (worker,
+        // stream, downloads) under the core's, so those bound the flags.
+        let bounded = |l: &Limits| {
+            [
+                l.max_particles as f64,
+                l.max_triangles as f64,
+                l.max_duration,
+                l.max_frames as f64,
+            ]
+        };
+        let flags = [
+            "--max-particles",
+            "--max-triangles",
+            "--max-duration",
+            "--max-frames",
+        ];
+        for ((flag, ours), theirs) in flags.into_iter().zip(bounded(&limits)).zip(bounded(&core)) {
+            if ours > theirs {
+                return Err(ConfigError::AboveCore { flag, core: theirs });
+            }
+        }
         Ok(Self {
             workers,
             node,
             lease_seconds: a.lease_seconds,
             queue_capacity: a.queue_capacity,
-            limits: Limits {
-                max_particles: a.max_particles,
-                max_triangles: a.max_triangles,
-                max_duration: a.max_duration,
-                max_frames: a.max_frames,
-                max_steps: core.max_steps,
-            },
+            limits,
             max_wall_seconds: a.max_wall_seconds,
             max_body_bytes: a.max_body_bytes,
             keys: Keys::parse(&a.api_keys)?,
@@ -215,5 +242,23 @@ mod tests {
             assert!(e.to_string().starts_with(flag), "{e}");
         }
         assert_eq!(config(&[]).expect("defaults").max_downloads, 2);
+    }
+
+    /// The service cannot admit what its workers, streams and downloads
+    /// would refuse when they load the stored spec under the core's limits.
+    #[test]
+    fn limits_above_the_core_are_refused_naming_the_flag() {
+        let core = Limits::default();
+        let flags = [
+            ("--max-particles", core.max_particles as f64),
+            ("--max-triangles", core.max_triangles as f64),
+            ("--max-duration", core.max_duration),
+            ("--max-frames", core.max_frames as f64),
+        ];
+        for (flag, at) in flags {
+            let e = config(&[flag, &(2.0 * at).to_string()]).expect_err("above the core");
+            assert!(e.to_string().starts_with(flag), "{e}");
+            config(&[flag, &at.to_string()]).expect("the core's own limit");
+        }
     }
 }

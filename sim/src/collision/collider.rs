@@ -86,8 +86,8 @@ impl Collider {
 }
 
 /// A triangle mesh picturing an obstacle in its own frame, with edges about
-/// `edge` long (planes drawn as a square of side `2 extent`): what a
-/// viewer draws.
+/// `edge` long (planes drawn as a square of side `2 extent`, in at most
+/// 32 x 32 squares): what a viewer draws.
 pub fn display_mesh(o: &Obstacle, edge: Real, extent: Real) -> Result<TriMesh, MeshError> {
     if let Some(s) = &o.sphere {
         return tessellate_sphere(s.center.into(), s.radius, edge);
@@ -100,7 +100,7 @@ pub fn display_mesh(o: &Obstacle, edge: Real, extent: Real) -> Result<TriMesh, M
             p.point.into(),
             p.normal.into(),
             extent,
-            edge.max(extent / 64.0),
+            edge.max(extent / 16.0),
         );
     }
     if let Some(c) = &o.cylinder {

@@ -7,8 +7,8 @@
 //! morph weights so that at frame `k`'s time target `k` has weight 1 and
 //! all others 0; linear interpolation between keys then blends linearly
 //! between consecutive frames, exactly what the frame sequence means.
-//! Weight keys grow as frames², which stays small next to the positions
-//! (frames × vertices × 3) for any grid beyond a few hundred particles.
+//! The weights, frames × targets numbers, are stored sparse (one non-zero
+//! a key), so the file grows linearly in the frames.
 
 use std::io::{self, Write};
 
@@ -103,18 +103,31 @@ pub fn write_glb<W: Write>(
             "bufferView": time_view, "componentType": FLOAT, "count": times.len(),
             "type": "SCALAR", "min": [times[0] as f32], "max": [times[times.len() - 1] as f32]
         }));
-        // Key k: target k-1 fully on (frame 0 is the base: all off).
-        let weight_view = bin.view(&mut views, None, |b| {
-            for k in 0..frames.len() {
-                for t in 0..n {
-                    let w: f32 = if k == t + 1 { 1.0 } else { 0.0 };
-                    b.extend_from_slice(&w.to_le_bytes());
-                }
+        // Key k: target k-1 fully on (frame 0 is the base: all off). Dense,
+        // that is frames x targets weights; sparse (zeros but for one
+        // weight a key, glTF 2.0 §3.6.2.3), eight bytes a key.
+        let ones: Vec<usize> = (1..frames.len()).map(|k| k * n + (k - 1)).collect();
+        let index_view = bin.view(&mut views, None, |b| {
+            for &i in &ones {
+                b.extend_from_slice(&(i as u32).to_le_bytes());
             }
         });
+        let value_view = bin.view(&mut views, None, |b| {
+            for _ in &ones {
+                b.extend_from_slice(&1.0f32.to_le_bytes());
+            }
+        });
+        let count = frames.len() * n;
+        if u32::try_from(count).is_err() {
+            return Err(invalid("too many frames for one glTF animation"));
+        }
         accessors.push(json!({
-            "bufferView": weight_view, "componentType": FLOAT,
-            "count": frames.len() * n, "type": "SCALAR"
+            "componentType": FLOAT, "count": count, "type": "SCALAR",
+            "sparse": {
+                "count": ones.len(),
+                "indices": { "bufferView": index_view, "componentType": UNSIGNED_INT },
+                "values": { "bufferView": value_view }
+            }
         }));
         doc["animations"] = json!([{
             "name": "simulation",

@@ -24,6 +24,17 @@ pub fn from_source(source: &MeshSource) -> Result<TriMesh, MeshError> {
     TriMesh::new(vertices.iter().map(|v| Vec3::from(*v)).collect(), triangles)
 }
 
+/// How many triangles the faces of OBJ `text` are cut into, counted from
+/// its `f` lines without parsing it: a face of `n` corners gives `n - 2`.
+/// What validation bounds before [`from_obj`] builds anything.
+pub fn obj_triangles(text: &str) -> usize {
+    text.lines()
+        .filter_map(|l| l.trim_start().strip_prefix('f'))
+        .filter(|rest| rest.starts_with([' ', '\t']))
+        .map(|rest| rest.split_whitespace().count().saturating_sub(2))
+        .sum()
+}
+
 /// Parses OBJ text; polygons are cut into triangles that cover them
 /// exactly, concave ones too (`polygon`), every object and group is
 /// merged into one mesh, materials are ignored.
@@ -110,6 +121,18 @@ mod tests {
 
     const TETRA_OBJ: &str =
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+    /// The count validation bounds before parsing is what parsing gives.
+    #[test]
+    fn obj_triangles_counts_what_faces_are_cut_into() {
+        assert_eq!(
+            obj_triangles(TETRA_OBJ),
+            from_obj(TETRA_OBJ).expect("tetra").triangles().len()
+        );
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 1.5 0\n\
+                    f 1 2 3\n  f\t1 2 3 4\nf 1 2 5 3 4\nfo 1 2 3\n# f 1 2 3\nf 1\n";
+        assert_eq!(obj_triangles(text), 1 + 2 + 3);
+    }
 
     #[test]
     fn obj_tetrahedron_loads() {

@@ -12,7 +12,7 @@ mod polygon;
 mod primitive;
 mod trimesh;
 
-pub use load::{from_obj, from_source, from_stl_base64};
+pub use load::{from_obj, from_source, from_stl_base64, obj_triangles};
 pub use normals::{angle_weighted_normals, edge_faces};
 pub use offset::{Curvature, SHARP_TURN, default_offset, mesh_offset_requirement, sharp_edges};
 pub use primitive::{

@@ -373,4 +373,29 @@ mod tests {
             .expect_err("refused");
         assert!(e.to_string().contains("12 particles"), "{e}");
     }
+
+    /// A checkpoint's step level beyond the scene's deepest is refused: the
+    /// adaptive controller counts its steps down from it.
+    #[test]
+    fn checkpoint_past_the_deepest_level_is_refused() {
+        let text = r#"{"cloth": {"grid": [3, 3], "size": [1, 1]}, "material": "cotton",
+            "duration": 0.1, "fps": 10, "solver": {"dt": "adaptive"}}"#;
+        let mut sim = Simulation::new(&scene_from_json(text)).expect("builds");
+        let crate::spec::TimeStepping::Adaptive {
+            max_level: deepest, ..
+        } = sim.scene().solver.stepping
+        else {
+            panic!("adaptive")
+        };
+        let mut c = sim.checkpoint();
+        c.level = deepest;
+        sim.resume(c.clone()).expect("the deepest level");
+        c.level = deepest + 1;
+        let e = sim.resume(c).expect_err("refused");
+        assert!(
+            e.to_string()
+                .contains(&format!("step level {}", deepest + 1)),
+            "{e}"
+        );
+    }
 }

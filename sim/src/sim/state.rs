@@ -168,7 +168,7 @@ impl RunState {
 
     /// Checks that this state can continue a run of `world`: the same
     /// particle count and pins, contacts with known particles and
-    /// obstacles, a frame within the run, finite numbers.
+    /// obstacles, a frame and a step level within the run, finite numbers.
     pub(crate) fn check_fits(&self, world: &World) -> Result<(), SimError> {
         let n = world.grid.len();
         let bad = |m: String| Err(SimError::Checkpoint(m));
@@ -184,6 +184,17 @@ impl RunState {
             return bad(format!(
                 "is at frame {} of a run of {}",
                 self.frame, world.scene.frames
+            ));
+        }
+        let max_level = match world.scene.solver.stepping {
+            TimeStepping::Fixed { .. } => 0,
+            TimeStepping::Adaptive { max_level, .. } => max_level,
+        };
+        if self.level > max_level {
+            // Steps of `frame_dt / 2^level` count down `2^(max_level - level)`.
+            return bad(format!(
+                "is at step level {} of a run of at most {max_level}",
+                self.level
             ));
         }
         let obstacles = world.obstacles.as_ref().map_or(0, |o| o.colliders().len());

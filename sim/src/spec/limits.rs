@@ -17,6 +17,10 @@ pub struct Limits {
     pub max_frames: usize,
     /// Largest number of solver steps (duration / dt).
     pub max_steps: usize,
+    /// Largest number of obstacles: each is tested against every particle
+    /// whose box it reaches, and a primitive is drawn for the stream with
+    /// up to a few thousand triangles.
+    pub max_obstacles: usize,
 }
 
 impl Default for Limits {
@@ -27,6 +31,7 @@ impl Default for Limits {
             max_duration: 3600.0,
             max_frames: 1_000_000,
             max_steps: 100_000_000,
+            max_obstacles: 256,
         }
     }
 }

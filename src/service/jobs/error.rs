@@ -41,7 +41,7 @@ pub enum SubmitError {
     NotUtf8(std::str::Utf8Error),
     /// Not JSON, or not a valid spec.
     #[error(transparent)]
-    Spec(SpecLoadError),
+    Spec(#[from] SpecLoadError),
     /// A valid spec with an obstacle that cannot be drawn for the stream.
     #[error("{}", .0.message)]
     Undrawable(SpecError),

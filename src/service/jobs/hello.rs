@@ -23,9 +23,10 @@ use crate::service::store::JobRow;
 const PRIMITIVE_SEGMENTS: f64 = 16.0;
 
 /// Checks that every obstacle of `scene` can be drawn, without building
-/// the whole hello.
+/// the whole hello: one display mesh at a time.
 pub fn check(scene: &Scene) -> Result<(), SpecError> {
-    obstacle_meshes(scene).map(drop)
+    let mut meshes = obstacle_meshes(scene);
+    meshes.try_for_each(|m| m.map(drop))
 }
 
 /// The hello of job `id` running `scene`; an obstacle that cannot be drawn
@@ -41,27 +42,27 @@ pub fn build(scene: &Scene, id: JobId) -> Result<Hello, SpecError> {
         fps: scene.fps,
         duration: scene.duration,
         triangles: grid.triangles(),
-        obstacles: obstacle_meshes(scene)?,
+        obstacles: obstacle_meshes(scene).collect::<Result<_, _>>()?,
     })
 }
 
-fn obstacle_meshes(scene: &Scene) -> Result<Vec<ObstacleMesh>, SpecError> {
+/// Each obstacle's display mesh, built as the iterator is advanced.
+fn obstacle_meshes(scene: &Scene) -> impl Iterator<Item = Result<ObstacleMesh, SpecError>> {
     let [su, sv] = scene.cloth.size;
     let diagonal = (su.powi(2) + sv.powi(2)).sqrt();
     let spacing = (su / (scene.cloth.nu as f64 - 1.0)).min(sv / (scene.cloth.nv as f64 - 1.0));
     // Smooth enough to look round, coarse enough to stay small: about a
     // hundred edges across the cloth, never finer than its particles, and
     // never more than a few thousand triangles for a primitive however
-    // large it is beside the cloth.
+    // large it is beside the cloth (`cost::DISPLAY_TRIANGLES`).
     let edge = (diagonal / 100.0).max(spacing);
-    let mut obstacles = Vec::with_capacity(scene.obstacles.len());
-    for (k, o) in scene.obstacles.iter().enumerate() {
+    scene.obstacles.iter().enumerate().map(move |(k, o)| {
         let edge = edge.max(primitive_size(o) / PRIMITIVE_SEGMENTS);
         let mesh = display_mesh(o, edge, 2.0 * diagonal).map_err(|e| SpecError {
             path: format!("obstacles[{k}]"),
             message: e.to_string(),
         })?;
-        obstacles.push(ObstacleMesh {
+        Ok(ObstacleMesh {
             vertices: mesh
                 .vertices()
                 .iter()
@@ -69,9 +70,8 @@ fn obstacle_meshes(scene: &Scene) -> Result<Vec<ObstacleMesh>, SpecError> {
                 .collect(),
             triangles: mesh.triangles().to_vec(),
             moving: o.motion.is_some(),
-        });
-    }
-    Ok(obstacles)
+        })
+    })
 }
 
 /// A primitive's largest extent (0 for a mesh or a plane, whose display
@@ -121,4 +121,44 @@ fn hello_message(row: &JobRow) -> Result<String, Fault> {
     let scene = row.scene().map_err(|e| fault(e.to_string()))?;
     let hello = build(&scene, row.id).map_err(|e| fault(e.to_string()))?;
     Ok(StreamMessage::Hello(hello).to_json())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::service::cost::DISPLAY_TRIANGLES;
+
+    /// The cost model's bound on a primitive's display mesh holds for every
+    /// kind, from far smaller than the cloth's spacing to far larger than
+    /// the cloth.
+    #[test]
+    fn a_primitive_is_drawn_within_the_cost_models_triangles() {
+        let cloths = [(0.01, 200), (1.0, 30), (1.0, 400), (100.0, 10)];
+        let shapes = [
+            r#"{"sphere": {"center": [0, 0, -50], "radius": R}}"#,
+            r#"{"box": {"center": [0, 0, -50], "size": [R, R, R]}}"#,
+            r#"{"box": {"center": [0, 0, -50], "size": [R, 0.001, 0.001]}}"#,
+            r#"{"cylinder": {"center": [0, 0, -50], "axis": [0, 0, 1], "radius": R, "height": 1}}"#,
+            r#"{"plane": {"point": [0, 0, -50], "normal": [0, 1, 1]}}"#,
+        ];
+        for (size, n) in cloths {
+            for shape in shapes {
+                for r in ["0.001", "0.3", "20"] {
+                    let spec = format!(
+                        r#"{{"cloth": {{"grid": [{n}, {n}], "size": [{size}, {size}], "origin": [0, 0, 0]}},
+                            "material": "cotton", "duration": 0.1, "fps": 10,
+                            "obstacles": [{}]}}"#,
+                        shape.replace('R', r)
+                    );
+                    let scene = crate::specfile::load(&spec, &Default::default()).expect(&spec);
+                    let mesh = obstacle_meshes(&scene).next().expect("one").expect("drawn");
+                    assert!(
+                        mesh.triangles.len() as f64 <= DISPLAY_TRIANGLES,
+                        "{} triangles: {spec}",
+                        mesh.triangles.len()
+                    );
+                }
+            }
+        }
+    }
 }

@@ -44,6 +44,11 @@ pub struct Jobs {
     /// Turns of result downloads (`--max-downloads`): each is built and
     /// held whole in memory until sent (`service::held_body`).
     pub(super) downloads: Arc<Semaphore>,
+    /// Turns of submissions' checks, one per core: parsing a spec and
+    /// building its meshes to check them can take up to the memory budget
+    /// of a job for a second or two, and more at once would only share the
+    /// cores and add up the memory.
+    pub(super) checks: Semaphore,
 }
 
 impl Jobs {
@@ -51,6 +56,9 @@ impl Jobs {
         Self {
             metrics: Metrics::new(&config.node),
             downloads: Arc::new(Semaphore::new(config.max_downloads)),
+            checks: Semaphore::new(
+                std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
+            ),
             config,
             store,
             wakeup: Wakeup::default(),

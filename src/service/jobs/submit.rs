@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use drapery_sim::spec::Scene;
+use drapery_sim::spec::{MeshSource, Scene};
 use tracing::info;
 
 use super::error::{Fault, SubmitError};
@@ -23,6 +23,8 @@ impl Jobs {
         body: impl AsRef<[u8]> + Send + 'static,
     ) -> Result<JobRow, SubmitError> {
         let owner = owner.name().to_owned();
+        // Closed never: the semaphore lives as long as `self`.
+        let _turn = self.checks.acquire().await.ok();
         let row = self
             .blocking(move |jobs| jobs.submit_now(&owner, body.as_ref()))
             .await?;
@@ -32,16 +34,19 @@ impl Jobs {
 
     fn submit_now(&self, owner: &str, body: &[u8]) -> Result<JobRow, SubmitError> {
         let text = std::str::from_utf8(body).map_err(SubmitError::NotUtf8)?;
-        let (scene, spec) =
-            specfile::load_spec(text, &self.config.limits).map_err(SubmitError::Spec)?;
+        // Weighed against the budgets before its obstacles are built.
+        let admit = |scene: &Scene| {
+            let estimate = cost::estimate(scene, mesh_triangles(scene));
+            let over = self.config.budgets.check(&estimate);
+            if over.is_empty() {
+                return Ok(());
+            }
+            self.metrics.rejected_over_budget.inc();
+            Err(SubmitError::OverBudget(over))
+        };
+        let (scene, spec) = specfile::load_spec(text, &self.config.limits, admit)?;
         // The spec as read, not the body: as long as what it says.
         let stored = serde_json::to_string(&spec).unwrap_or_else(|_| text.to_owned());
-        let estimate = cost::estimate(&scene, mesh_triangles(&scene));
-        let over = self.config.budgets.check(&estimate);
-        if !over.is_empty() {
-            self.metrics.rejected_over_budget.inc();
-            return Err(SubmitError::OverBudget(over));
-        }
         // NOTE: the hello itself is built when the job first starts: a job
         // cancelled while it waits never pays for it, in time or disk.
         hello::check(&scene).map_err(SubmitError::Undrawable)?;
@@ -75,11 +80,17 @@ impl Jobs {
 /// collision treats them exactly). Validation loaded each mesh already, so
 /// none fails here.
 fn mesh_triangles(scene: &Scene) -> u64 {
+    // Validation parsed every mesh and bounded the sum: an OBJ is counted
+    // from its faces and inline triangles as given, not parsed again.
+    let count = |m: &MeshSource| match (&m.obj, &m.triangles) {
+        (Some(obj), _) => drapery_sim::mesh::obj_triangles(obj),
+        (None, Some(t)) => t.len(),
+        (None, None) => drapery_sim::mesh::from_source(m).map_or(0, |m| m.triangles().len()),
+    };
     scene
         .obstacles
         .iter()
         .filter_map(|o| o.mesh.as_ref())
-        .filter_map(|m| drapery_sim::mesh::from_source(m).ok())
-        .map(|m| m.triangles().len() as u64)
+        .map(|m| count(m) as u64)
         .sum()
 }

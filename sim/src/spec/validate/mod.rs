@@ -41,8 +41,22 @@ impl Spec {
         } else {
             Some(g)
         };
-        for (k, o) in self.obstacles.iter().enumerate() {
-            obstacle::validate_obstacle(&format!("obstacles[{k}]"), o, limits, &mut c);
+        if self.obstacles.len() > limits.max_obstacles {
+            // Not looked into: each could be a mesh to build.
+            c.fail(
+                "obstacles",
+                format!(
+                    "{} obstacles exceeds the limit of {}",
+                    self.obstacles.len(),
+                    limits.max_obstacles
+                ),
+            );
+        } else {
+            let mut triangles = 0;
+            for (k, o) in self.obstacles.iter().enumerate() {
+                let path = format!("obstacles[{k}]");
+                obstacle::validate_obstacle(&path, o, limits, &mut triangles, &mut c);
+            }
         }
         let frames = solver::validate_timing(self, limits, &mut c);
         let solver = solver::validate_solver(self, limits, frames, &mut c);

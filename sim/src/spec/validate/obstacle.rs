@@ -4,7 +4,16 @@ use super::check::{Check, MAX_COORD};
 use crate::spec::limits::Limits;
 use crate::spec::obstacle::{MeshSource, Motion, Obstacle};
 
-pub(super) fn validate_obstacle(path: &str, o: &Obstacle, limits: &Limits, c: &mut Check) {
+/// Checks obstacle `o` at `path`; `triangles` counts the mesh triangles of
+/// the obstacles checked so far, which `limits.max_triangles` bounds in
+/// all.
+pub(super) fn validate_obstacle(
+    path: &str,
+    o: &Obstacle,
+    limits: &Limits,
+    triangles: &mut usize,
+    c: &mut Check,
+) {
     let shapes = [
         o.sphere.is_some(),
         o.box_.is_some(),
@@ -63,7 +72,7 @@ pub(super) fn validate_obstacle(path: &str, o: &Obstacle, limits: &Limits, c: &m
         }
         let before = c.errors.len();
         if inline {
-            validate_inline_mesh(path, m, limits, c);
+            validate_inline_mesh(path, m, limits, *triangles, c);
         }
         if n == 1 && c.errors.len() == before {
             let field = if m.obj.is_some() {
@@ -73,17 +82,24 @@ pub(super) fn validate_obstacle(path: &str, o: &Obstacle, limits: &Limits, c: &m
             } else {
                 "triangles"
             };
-            match crate::mesh::from_source(m) {
-                Err(e) => c.fail(format!("{path}.mesh.{field}"), e.0),
-                Ok(mesh) if mesh.triangles().len() > limits.max_triangles => c.fail(
+            // An OBJ's faces are counted before it is parsed: one face of
+            // many corners is cut into as many triangles.
+            let listed = m.obj.as_deref().map_or(0, crate::mesh::obj_triangles);
+            if *triangles + listed > limits.max_triangles {
+                c.fail(
                     format!("{path}.mesh.{field}"),
-                    format!(
-                        "{} triangles exceeds the limit of {}",
-                        mesh.triangles().len(),
-                        limits.max_triangles
-                    ),
-                ),
-                Ok(_) => {}
+                    too_many(listed, *triangles, limits),
+                );
+            } else {
+                match crate::mesh::from_source(m) {
+                    Err(e) => c.fail(format!("{path}.mesh.{field}"), e.0),
+                    Ok(mesh) if *triangles + mesh.triangles().len() > limits.max_triangles => c
+                        .fail(
+                            format!("{path}.mesh.{field}"),
+                            too_many(mesh.triangles().len(), *triangles, limits),
+                        ),
+                    Ok(mesh) => *triangles += mesh.triangles().len(),
+                }
             }
         }
     }
@@ -96,7 +112,27 @@ pub(super) fn validate_obstacle(path: &str, o: &Obstacle, limits: &Limits, c: &m
     }
 }
 
-pub(super) fn validate_inline_mesh(path: &str, m: &MeshSource, limits: &Limits, c: &mut Check) {
+/// The error of a mesh of `count` triangles after `earlier` triangles of
+/// other obstacles, over the limit they share.
+fn too_many(count: usize, earlier: usize, limits: &Limits) -> String {
+    let max = limits.max_triangles;
+    if earlier == 0 {
+        format!("{count} triangles exceeds the limit of {max}")
+    } else {
+        format!(
+            "{count} triangles make {} with the obstacles before it, over the limit of {max} summed over obstacles",
+            count + earlier
+        )
+    }
+}
+
+fn validate_inline_mesh(
+    path: &str,
+    m: &MeshSource,
+    limits: &Limits,
+    earlier: usize,
+    c: &mut Check,
+) {
     let (Some(vs), Some(ts)) = (&m.vertices, &m.triangles) else {
         c.fail(
             format!("{path}.mesh"),
@@ -107,14 +143,10 @@ pub(super) fn validate_inline_mesh(path: &str, m: &MeshSource, limits: &Limits, 
     if ts.is_empty() {
         c.fail(format!("{path}.mesh.triangles"), "must not be empty");
     }
-    if ts.len() > limits.max_triangles {
+    if earlier + ts.len() > limits.max_triangles {
         c.fail(
             format!("{path}.mesh.triangles"),
-            format!(
-                "{} triangles exceeds the limit of {}",
-                ts.len(),
-                limits.max_triangles
-            ),
+            too_many(ts.len(), earlier, limits),
         );
         return;
     }
