@@ -27,7 +27,8 @@ use crate::specfile::{self, SpecLoadError};
 fn glb_fits(scene: &Scene) -> Result<(), SpecLoadError> {
     let particles = (scene.cloth.nu * scene.cloth.nv) as f64;
     let frames = scene.frames + 1;
-    // Each frame a morph target (12 B a particle) and its sparse weight key.
+    // Each frame a morph target (12 B a particle) and its sparse weight
+    // key; the base mesh's positions and triangles ~24 B a particle.
     let bytes = frames as f64 * (12.0 * particles + 64.0) + 24.0 * particles;
     if bytes <= f64::from(u32::MAX) {
         return Ok(());

@@ -25,8 +25,7 @@ const PRIMITIVE_SEGMENTS: f64 = 16.0;
 /// Checks that every obstacle of `scene` can be drawn, without building
 /// the whole hello: one display mesh at a time.
 pub fn check(scene: &Scene) -> Result<(), SpecError> {
-    let mut meshes = obstacle_meshes(scene);
-    meshes.try_for_each(|m| m.map(drop))
+    obstacle_meshes(scene).try_for_each(|m| m.map(drop))
 }
 
 /// The hello of job `id` running `scene`; an obstacle that cannot be drawn

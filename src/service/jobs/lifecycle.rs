@@ -48,7 +48,7 @@ pub struct Jobs {
     /// building its meshes to check them can take up to the memory budget
     /// of a job for a second or two, and more at once would only share the
     /// cores and add up the memory.
-    pub(super) checks: Semaphore,
+    pub(super) checks: Arc<Semaphore>,
 }
 
 impl Jobs {
@@ -56,9 +56,9 @@ impl Jobs {
         Self {
             metrics: Metrics::new(&config.node),
             downloads: Arc::new(Semaphore::new(config.max_downloads)),
-            checks: Semaphore::new(
+            checks: Arc::new(Semaphore::new(
                 std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
-            ),
+            )),
             config,
             store,
             wakeup: Wakeup::default(),

@@ -23,10 +23,14 @@ impl Jobs {
         body: impl AsRef<[u8]> + Send + 'static,
     ) -> Result<JobRow, SubmitError> {
         let owner = owner.name().to_owned();
-        // Closed never: the semaphore lives as long as `self`.
-        let _turn = self.checks.acquire().await.ok();
+        // Held by the check itself, which runs on even if the client goes
+        // (never closed: the semaphore lives as long as `self`).
+        let turn = Arc::clone(&self.checks).acquire_owned().await.ok();
         let row = self
-            .blocking(move |jobs| jobs.submit_now(&owner, body.as_ref()))
+            .blocking(move |jobs| {
+                let _turn = turn;
+                jobs.submit_now(&owner, body.as_ref())
+            })
             .await?;
         info!(id = %row.id, name = %row.name, "job submitted");
         Ok(row)
