@@ -167,3 +167,31 @@ pub(super) fn queued(counts: &[(Status, u64)]) -> usize {
         .find(|(s, _)| *s == Status::Queued)
         .map_or(0, |(_, n)| *n as usize)
 }
+
+/// A node of one worker over a store of its own under the test directory
+/// `tag`, for the tests of this folder and the worker's.
+#[cfg(test)]
+pub(crate) fn jobs_for_tests(tag: &str) -> Arc<Jobs> {
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+    let argv = [
+        "drapery",
+        "serve",
+        "--workers",
+        "1",
+        "--queue-capacity",
+        "4",
+        "--max-wall-seconds",
+        "60",
+        "--checkpoint-seconds",
+        "1",
+        "--shutdown-grace",
+        "1",
+    ];
+    let Command::Serve(args) = Cli::try_parse_from(argv).expect("flags").command else {
+        unreachable!("parsed as serve");
+    };
+    let config = Config::from_args(&args).expect("a configuration");
+    let store = Store::open(&crate::test_dir(tag)).expect("store");
+    Arc::new(Jobs::new(Arc::new(config), store))
+}

@@ -18,6 +18,8 @@ mod wakeup;
 pub use attempt::{Attempt, Outcome};
 pub use error::{Fault, JobsError, ListError, SubmitError};
 pub use lifecycle::Jobs;
+#[cfg(test)]
+pub(crate) use lifecycle::jobs_for_tests;
 pub use lookup::{ListFilter, Page};
 pub use running::StopReason;
 pub use subscription::{Event, Subscription};

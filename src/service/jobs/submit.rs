@@ -98,3 +98,37 @@ fn mesh_triangles(scene: &Scene) -> u64 {
         .map(|m| count(m) as u64)
         .sum()
 }
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::service::keys::Owner;
+
+    const SPEC: &str = r#"{"cloth": {"grid": [3, 3], "size": [1, 1]}, "material": "cotton", "duration": 0.1, "fps": 10}"#;
+
+    /// A submission is checked only in a turn of its own: with every turn
+    /// taken it waits, and it goes through once one is given back.
+    #[tokio::test]
+    async fn a_submission_waits_for_a_turn_to_be_checked() {
+        let jobs = super::super::jobs_for_tests("submit-turns");
+        let turns = jobs.checks.available_permits() as u32;
+        let taken = Arc::clone(&jobs.checks)
+            .acquire_many_owned(turns)
+            .await
+            .expect("open");
+        let submitting = tokio::spawn({
+            let jobs = Arc::clone(&jobs);
+            async move { jobs.submit(&Owner(None), SPEC.as_bytes()).await }
+        });
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert!(!submitting.is_finished(), "checked without a turn");
+        drop(taken);
+        let row = submitting.await.expect("joins").expect("submitted");
+        assert_eq!(
+            jobs.store.job(row.id).expect("reads").map(|r| r.id),
+            Some(row.id)
+        );
+    }
+}

@@ -88,37 +88,11 @@ fn attempt(jobs: &Jobs, attempt: &Attempt) -> Result<(), StoreError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cli::{Cli, Command};
-    use crate::service::config::Config;
     use crate::service::job::Status;
     use crate::service::keys::Owner;
-    use crate::service::store::Store;
-    use clap::Parser;
 
     fn jobs() -> Arc<Jobs> {
-        let dir = crate::test_dir("worker");
-        let argv = [
-            "drapery",
-            "serve",
-            "--workers",
-            "1",
-            "--queue-capacity",
-            "4",
-            "--max-wall-seconds",
-            "60",
-            "--checkpoint-seconds",
-            "1",
-            "--shutdown-grace",
-            "1",
-        ];
-        let Command::Serve(args) = Cli::try_parse_from(argv).expect("flags").command else {
-            unreachable!("parsed as serve");
-        };
-        let config = Config::from_args(&args).expect("a configuration");
-        Arc::new(Jobs::new(
-            Arc::new(config),
-            Store::open(&dir).expect("store"),
-        ))
+        crate::service::jobs::jobs_for_tests("worker")
     }
 
     const SPEC: &str = r#"{"cloth": {"grid": [3, 3], "size": [1, 1]}, "material": "cotton", "duration": 0.1, "fps": 10}"#;
