@@ -44,10 +44,11 @@ pub struct Jobs {
     /// Turns of result downloads (`--max-downloads`): each is built and
     /// held whole in memory until sent (`service::held_body`).
     pub(super) downloads: Arc<Semaphore>,
-    /// Turns of submissions' checks, one per core: parsing a spec and
-    /// building its meshes to check them can take up to the memory budget
-    /// of a job for a second or two, and more at once would only share the
-    /// cores and add up the memory.
+    /// Turns of submissions' checks, one per solver thread (`--threads`,
+    /// every core by default): parsing a spec and building its meshes to
+    /// check them can take up to the memory budget of a job for a second
+    /// or two, and more at once would only share the cores and add up the
+    /// memory.
     pub(super) checks: Arc<Semaphore>,
 }
 
@@ -56,9 +57,7 @@ impl Jobs {
         Self {
             metrics: Metrics::new(&config.node),
             downloads: Arc::new(Semaphore::new(config.max_downloads)),
-            checks: Arc::new(Semaphore::new(
-                std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
-            )),
+            checks: Arc::new(Semaphore::new(drapery_sim::parallel::threads())),
             config,
             store,
             wakeup: Wakeup::default(),
