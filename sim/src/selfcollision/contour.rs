@@ -46,7 +46,27 @@ pub struct Sweep<'a> {
     /// Positions at the end.
     pub x1: &'a [Vec3],
     /// How far each particle may stray from its path, metres.
-    pub slack: Real,
+    pub slack: Slack<'a>,
+}
+
+/// How far particles may stray from their paths.
+#[derive(Debug, Clone, Copy)]
+pub enum Slack<'a> {
+    /// Not at all.
+    None,
+    /// Each particle its own distance.
+    Each(&'a [Real]),
+}
+
+impl Slack<'_> {
+    /// Particle `k`'s.
+    #[inline]
+    fn of(&self, k: usize) -> Real {
+        match self {
+            Slack::None => 0.0,
+            Slack::Each(s) => s[k],
+        }
+    }
 }
 
 /// Scratch of one test: each boundary edge's projected ends, its reach
@@ -65,6 +85,8 @@ struct Item {
     /// The ends' motions within the plane.
     dp: Vec3,
     dq: Vec3,
+    /// How far its points may stray besides (the larger of its ends').
+    slack: Real,
     lo: Real,
     hi: Real,
 }
@@ -134,6 +156,7 @@ impl Contours {
             let [a, b] = ends.map(|v| v as usize);
             let (p, q) = (flat(x0[a]), flat(x0[b]));
             let (dp, dq) = (flat(x1[a] - x0[a]), flat(x1[b] - x0[b]));
+            let slack = slack.of(a).max(slack.of(b));
             let reach = dp.norm().max(dq.norm()) + slack;
             let (u, v) = (sweep.dot(&p), sweep.dot(&q));
             items.push(Item {
@@ -142,6 +165,7 @@ impl Contours {
                 q,
                 dp,
                 dq,
+                slack,
                 lo: u.min(v) - reach,
                 hi: u.max(v) + reach,
             });
@@ -166,7 +190,7 @@ impl Contours {
                     .fold(0.0, Real::max);
                 // Crossing edges are at a distance of rounding error.
                 let margin = 1e-9 * (a.q - a.p).norm().max((b.q - b.p).norm());
-                if gap.norm() <= relative + 2.0 * slack + margin {
+                if gap.norm() <= relative + a.slack + b.slack + margin {
                     return false;
                 }
             }

@@ -125,11 +125,27 @@ impl QueryBoxes {
     /// The boxes of the motion from `x0` to `x1` with pad `pad`, for a
     /// mesh with edges `edges`.
     pub fn fit(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real, edges: &[[u32; 2]]) {
+        self.fit_each(x0, x1, |_| 0.5 * pad, edges);
+    }
+
+    /// [`Self::fit`] with each vertex's box grown by its own `grow(k)`.
+    pub fn fit_each(
+        &mut self,
+        x0: &[Vec3],
+        x1: &[Vec3],
+        grow: impl Fn(usize) -> Real + Sync,
+        edges: &[[u32; 2]],
+    ) {
         let min = 4 * parallel::ROWS_MIN;
         self.vertices.resize(x0.len(), Box32::EMPTY);
         parallel::for_chunks_min(&mut self.vertices, min, |start, boxes| {
-            for ((b, a), e) in boxes.iter_mut().zip(&x0[start..]).zip(&x1[start..]) {
-                *b = Box32::of_segment(a, e, 0.5 * pad);
+            for (k, ((b, a), e)) in boxes
+                .iter_mut()
+                .zip(&x0[start..])
+                .zip(&x1[start..])
+                .enumerate()
+            {
+                *b = Box32::of_segment(a, e, grow(start + k));
             }
         });
         self.edges.resize(edges.len(), Box32::EMPTY);

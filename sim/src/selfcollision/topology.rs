@@ -18,7 +18,7 @@
 
 use super::budget;
 use super::cones::{self, Cone};
-use super::contour::{self, Contours, Sweep};
+use super::contour::{self, Contours, Slack, Sweep};
 use super::geometry::segment_crosses_triangle;
 use super::kept::extend_kept;
 use super::query_boxes::QueryBoxes;
@@ -191,7 +191,18 @@ impl ClothMesh {
     /// Refits the boxes only (as [`ClothMesh::refit`]), for queries that
     /// cull nothing.
     pub fn refit_boxes(&mut self, x0: &[Vec3], x1: &[Vec3], pad: Real) {
-        self.boxes.fit(x0, x1, pad, &self.edges);
+        self.refit_boxes_each(x0, x1, |_| 0.5 * pad);
+    }
+
+    /// [`Self::refit_boxes`] with each vertex's box grown by its own
+    /// `grow(k)` (half a pad).
+    pub fn refit_boxes_each(
+        &mut self,
+        x0: &[Vec3],
+        x1: &[Vec3],
+        grow: impl Fn(usize) -> Real + Sync,
+    ) {
+        self.boxes.fit_each(x0, x1, grow, &self.edges);
         self.boxes.fit_triangles(&self.triangles);
         let boxes = &self.boxes.triangles;
         parallel::for_chunks_min(&mut self.tri_boxes, 4 * parallel::ROWS_MIN, |start, out| {
@@ -208,7 +219,7 @@ impl ClothMesh {
         let sweep = Sweep {
             x0: &self.x0,
             x1: &self.x1,
-            slack: 0.0,
+            slack: Slack::None,
         };
         cull && self.cones.get(node).is_some_and(|c| {
             c.is_flat()

@@ -11,14 +11,16 @@
 //! ends (and so, the bounds being convex, all along the straight paths
 //! between them),
 //!
-//! - no particle is more than `reach` from its place in `base` (so a
-//!   feature's swept box grown by the query's pad lies in its box at
-//!   `base` grown by `pad / 2 + reach`),
-//! - no edge vector differs by more than `bend` from its value in `base`
-//!   (so each triangle's normal stays in its cone at `base` widened by
-//!   `asin(ρ / |n|)`, `Cone::of_turning_triangle`), and no boundary point
-//!   of a patch strays from its place in `base` by more than `reach` (the
-//!   contour test with that slack, `contour::Sweep`).
+//! - no particle `k` is more than its own `reach_k` from its place in
+//!   `base` (so a feature's swept box grown by the query's pad lies in
+//!   its box at `base` with each vertex's grown by `pad / 2 + reach_k`),
+//! - no edge vector `e` differs by more than its own `bend_e` from its
+//!   value in `base` (so each triangle's normal stays in its cone at
+//!   `base` widened by `asin(ρ / |n|)`, `ρ` the larger bound of the two
+//!   edges the cone takes, `Cone::of_turning_triangle`), and no boundary
+//!   point of a patch strays from its place in `base` by more than its
+//!   edge's ends' reach (the contour test with that slack,
+//!   `contour::Sweep`).
 //!
 //! A patch flat under those bounds cannot meet itself in any such motion,
 //! so its pairs are left out; every other pair whose boxes overlap is in
@@ -33,11 +35,13 @@
 //! At a step's start the plan is kept if the cloth, moving [`GROWTH`]
 //! times as far as in the last step (`RunState::last_moved`), stays
 //! within its bounds; otherwise it is made again at the step's start
-//! positions for [`AHEAD`] such steps: bounds `AHEAD` times twice the
-//! last step's largest particle motion and edge change, capped at
+//! positions for [`AHEAD`] such steps: each particle's and edge's bound
+//! `AHEAD` times twice its own motion and change in the last step, at
+//! least [`SHARE_OF_LARGEST`] of the largest one's, capped at
 //! [`REACH_SHARE`] and [`BEND_SHARE`] of the spacing, and no plan at all
 //! when even one step's exceeds the caps (fast motion, where the widened
-//! cones would cull little). When the plan does not hold for the solve's
+//! cones would cull little). Bounds of their own keep the boxes and cones
+//! of the still parts of a cloth tight while a corner of it flaps. When the plan does not hold for the solve's
 //! motion, the response plans again from the step's start with
 //! [`RESPONSE_GROWTH`] times the solve's own motion ([`Plan::cover`]):
 //! the proximity pass and the collision passes after it then share one
@@ -60,7 +64,7 @@
 //! are tested. A crumpled cloth is where that can happen.
 
 use super::cones::{self, Cone};
-use super::contour::Sweep;
+use super::contour::{Slack, Sweep};
 use super::kept::extend_kept;
 use super::topology::ClothMesh;
 use crate::math::{Real, Vec3};
@@ -71,6 +75,13 @@ pub const REACH_SHARE: Real = 0.25;
 /// Largest `bend` planned for, as a share of the cloth's spacing: a
 /// triangle's normal then turns by at most about 15°.
 pub const BEND_SHARE: Real = 0.1;
+/// A particle's (an edge's) bound at least this share of the largest:
+/// a particle still beside a moving one soon moves too. At 0.25 the
+/// settled sphere-drape-100 has 7–14 % less self-collision time than with
+/// one bound for all (the share 1), and sphere-drape-30 3–4 % less; at 0.1
+/// the plans held for fewer steps and sphere-drape-30 took 20 % longer
+/// (docs/benchmarks.md 1al).
+const SHARE_OF_LARGEST: Real = 0.25;
 /// The bounds' margin over the last step's motion, for one step.
 const GROWTH: Real = 2.0;
 /// Steps of motion a plan is made for. Larger bounds keep more pairs
@@ -114,8 +125,13 @@ struct Bounds {
 pub struct Plan {
     base: Vec<Vec3>,
     pad: Real,
+    /// The largest of `reach_of` and of `bend_of`.
     reach: Real,
     bend: Real,
+    /// Per particle, how far it may move from `base`.
+    reach_of: Vec<Real>,
+    /// Per mesh edge, how far its vector may change from `base`'s.
+    bend_of: Vec<Real>,
     /// Per triangle, then per hierarchy node, the cone of its normals
     /// under the bounds.
     tri_cones: Vec<Cone>,
@@ -228,11 +244,15 @@ impl Plan {
             scale * (d + a) <= bound * bound
         };
         n == self.base.len()
-            && (0..n).all(|k| inside(off(k), ahead(k), self.reach))
-            && mesh.edges.iter().all(|&[a, b]| {
-                let (a, b) = (a as usize, b as usize);
-                inside(off(b) - off(a), ahead(b) - ahead(a), self.bend)
-            })
+            && (0..n).all(|k| inside(off(k), ahead(k), self.reach_of[k]))
+            && mesh
+                .edges
+                .iter()
+                .zip(&self.bend_of)
+                .all(|(&[a, b], &bend)| {
+                    let (a, b) = (a as usize, b as usize);
+                    inside(off(b) - off(a), ahead(b) - ahead(a), bend)
+                })
     }
 
     /// Plans at `x` for [`AHEAD`] motions up to `growth` times `motion`'s
@@ -272,24 +292,41 @@ impl Plan {
         if motion.len() != x.len() {
             return false;
         }
-        let (reach, bend) = extent(motion, &mesh.edges);
         let floor = FLOOR * pad;
+        let (reach, bend) = extent(motion, &mesh.edges);
         if growth * reach + floor > caps.0 || growth * bend + floor > caps.1 {
             return false;
         }
-        let (reach, bend) = (
-            (ahead * growth * reach + floor).min(caps.0),
-            (ahead * growth * bend + floor).min(caps.1),
-        );
+        // Each particle's and edge's bound: `ahead` of its own motion, but
+        // at least a share of the largest's, within the cap.
+        let bound = |d: Real, largest: Real, cap: Real| {
+            let of = |d: Real| ahead * growth * d + floor;
+            of(d).max(SHARE_OF_LARGEST * of(largest)).min(cap)
+        };
+        let edge = |[a, b]: [u32; 2]| (motion[b as usize] - motion[a as usize]).norm();
+        self.reach_of.clear();
+        self.reach_of
+            .extend(motion.iter().map(|d| bound(d.norm(), reach, caps.0)));
+        self.bend_of.clear();
+        self.bend_of
+            .extend(mesh.edges.iter().map(|&e| bound(edge(e), bend, caps.1)));
         self.base.clear();
         self.base.extend_from_slice(x);
-        (self.pad, self.reach, self.bend) = (pad, reach, bend);
+        (self.pad, self.reach, self.bend) =
+            (pad, bound(reach, reach, caps.0), bound(bend, bend, caps.1));
         // A hair more than the bounds: a query box, rounded, stays inside.
-        mesh.refit_boxes(x, x, pad + 2.0 * reach + ROUNDING * mesh.spacing);
+        let (reach_of, rounding) = (&self.reach_of, ROUNDING * mesh.spacing);
+        mesh.refit_boxes_each(x, x, |k| 0.5 * (pad + 2.0 * reach_of[k] + rounding));
         let triangles = &mesh.triangles;
         self.tri_cones.resize(triangles.len(), Cone::WHOLE);
         parallel::for_chunks_min(&mut self.tri_cones, parallel::ROWS_MIN, |start, cones| {
             for (c, tri) in cones.iter_mut().zip(&triangles[start..]) {
+                // Its two edges from the first corner, as the cone takes them.
+                let bend = bound(edge([tri[0], tri[1]]), bend, caps.1).max(bound(
+                    edge([tri[0], tri[2]]),
+                    bend,
+                    caps.1,
+                ));
                 *c = Cone::of_turning_triangle(tri.map(|k| &x[k as usize]), bend);
             }
         });
@@ -299,7 +336,7 @@ impl Plan {
             Sweep {
                 x0: x,
                 x1: x,
-                slack: reach,
+                slack: Slack::Each(&self.reach_of),
             },
         );
         let budget = mesh.pair_budget;

@@ -55,10 +55,16 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
     let mut plan = Plan::default();
     assert!(plan.make(&mut mesh, &x, pad, &last));
     let (reach, bend) = (plan.reach, plan.bend);
+    // Each particle's own bounds are at least a share of the largest.
+    let least = |v: &[Real]| v.iter().copied().fold(Real::INFINITY, Real::min);
+    let (reach_least, bend_least) = (least(&plan.reach_of), least(&plan.bend_of));
+    assert!(reach_least >= SHARE_OF_LARGEST * reach && reach_least < reach);
+    assert!(bend_least >= SHARE_OF_LARGEST * bend);
     let (mut vf, mut ee) = (vec![], vec![]);
     let mut compared = 0;
-    // Positions within the bounds: a common drift plus a small part
-    // per particle, so neighbours stay within `bend` of each other.
+    // Positions within every particle's bounds: a common drift plus a
+    // small part per particle, so neighbours stay within `bend_least` of
+    // each other.
     let mut near = |drift: Vec3| -> Vec<Vec3> {
         x.iter()
             .map(|p| {
@@ -66,8 +72,8 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
                     rng.random_range(-1.0..1.0),
                     rng.random_range(-1.0..1.0),
                     rng.random_range(-1.0..1.0),
-                ) * (0.25 * bend.min(reach));
-                p + drift * (0.5 * reach) + own
+                ) * (0.25 * bend_least.min(reach_least));
+                p + drift * (0.5 * reach_least) + own
             })
             .collect()
     };
@@ -85,7 +91,10 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
     }
     // A later step near the base, moving slowly, keeps the plan; one
     // whose next motion could leave the bounds plans again.
-    let later: Vec<Vec3> = x.iter().map(|p| p + Vec3::z() * (0.5 * reach)).collect();
+    let later: Vec<Vec3> = x
+        .iter()
+        .map(|p| p + Vec3::z() * (0.5 * reach_least))
+        .collect();
     let slow: Vec<Vec3> = last.iter().map(|d| d * 0.1).collect();
     assert!(plan.make(&mut mesh, &later, pad, &slow));
     assert_eq!((plan.base.as_slice(), plan.reach), (x.as_slice(), reach));
@@ -114,6 +123,52 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
     let half: Vec<Vec3> = moved.iter().map(|d| d * 0.5).collect();
     plan.cover(&mut mesh, &x, pad, &half);
     assert_eq!(plan.reach, before);
+}
+
+/// A strip folded over itself whose free end flaps while the rest
+/// creeps: the flapping particles get bounds of their own, larger than
+/// the rest's, and motions that take them that far (past the others'
+/// bounds) keep the plan, whose pairs hold every pair a refit finds; the
+/// same distance for a creeping particle does not.
+#[test]
+fn a_flapping_end_has_bounds_of_its_own() {
+    let (nu, nv) = (16, 6);
+    let grid = crate::testing::flat_grid(nu, nv, [1.5, 0.5]);
+    let mut mesh = ClothMesh::new(&grid);
+    let s = mesh.spacing;
+    let x = crate::testing::folded_strip(nu, nv, s, 0.3, 0.1);
+    let flaps = |k: usize| k % nu == nu - 1;
+    let last: Vec<Vec3> = (0..x.len())
+        .map(|k| Vec3::new(0.0, 0.0, if flaps(k) { 0.02 } else { 0.001 }) * s)
+        .collect();
+    let pad = 0.2 * s;
+    let mut plan = Plan::default();
+    assert!(plan.make(&mut mesh, &x, pad, &last));
+    // The last column flaps; the first does not.
+    let (fast, slow) = (plan.reach_of[nu - 1], plan.reach_of[0]);
+    assert!(fast > 3.0 * slow, "bounds {fast} and {slow}");
+    assert!(slow >= SHARE_OF_LARGEST * plan.reach);
+    let mut compared = 0;
+    for round in 0..6 {
+        // The end up or down by most of its own bound, the rest by a
+        // little, so the edges beside the end bend by its motion.
+        let sign = if round % 2 == 0 { 1.0 } else { -1.0 };
+        let x1: Vec<Vec3> = x
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let by = if flaps(k) { 0.45 * fast } else { 0.1 * slow };
+                p + Vec3::z() * (sign * by)
+            })
+            .collect();
+        compared += holds_a_refit(&plan, &mut mesh, (&x, &x1), pad);
+    }
+    assert!(compared > 50, "only {compared} pairs compared");
+    // A creeping particle moved as far as the end may: out of bounds.
+    let mut far = x.clone();
+    far[nu / 2].z += 0.9 * fast;
+    let (mut vf, mut ee) = (vec![], vec![]);
+    assert!(!plan.pairs(&mut mesh, (&x, &far), pad, &mut vf, &mut ee));
 }
 
 /// A flat cloth at rest is planned with no pair at all; a motion too
@@ -162,11 +217,14 @@ fn a_response_plans_a_motion_too_fast_for_a_step() {
     let (mut vf, mut ee) = (vec![], vec![]);
     let mut compared = 0;
     for round in 0..10 {
+        // Scaled, and shifted as a whole: each particle and edge within
+        // its own bound (`Plan::reach_of`, `Plan::bend_of`).
         let scale = 0.5 + 0.06 * round as Real;
+        let shift = jitter(0.005 * s);
         let x1: Vec<Vec3> = x
             .iter()
             .zip(&moved)
-            .map(|(p, d)| p + d * scale + jitter(0.005 * s))
+            .map(|(p, d)| p + d * scale + shift)
             .collect();
         let p = if round % 2 == 0 { pad } else { 0.1 * pad };
         compared += holds_a_refit(&plan, &mut mesh, (&x, &x1), p);
