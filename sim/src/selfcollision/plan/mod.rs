@@ -41,12 +41,13 @@
 //! [`REACH_SHARE`] and [`BEND_SHARE`] of the spacing, and no plan at all
 //! when even one step's exceeds the caps (fast motion, where the widened
 //! cones would cull little). Bounds of their own keep the boxes and cones
-//! of the still parts of a cloth tight while a corner of it flaps. When the plan does not hold for the solve's
-//! motion, the response plans again from the step's start with
-//! [`RESPONSE_GROWTH`] times the solve's own motion ([`Plan::cover`]):
-//! the proximity pass and the collision passes after it then share one
-//! descent, and a collision pass after impulses gets pairs culled for its
-//! own motion, not for the solve's.
+//! of the still parts of a cloth tight while a corner of it flaps. When
+//! the plan does not hold for the solve's motion, the response plans
+//! again from the step's start with [`RESPONSE_GROWTH`] times the
+//! solve's own motion ([`Plan::cover`]): the proximity pass and the
+//! collision passes after it then share one descent, and a collision
+//! pass after impulses gets pairs culled for its own motion, not for the
+//! solve's.
 //!
 //! Faster motion than the caps allow leaves the step without a plan, and
 //! each query of the response refits and descends on its own: seven a
@@ -76,11 +77,11 @@ pub const REACH_SHARE: Real = 0.25;
 /// triangle's normal then turns by at most about 15°.
 pub const BEND_SHARE: Real = 0.1;
 /// A particle's (an edge's) bound at least this share of the largest:
-/// a particle still beside a moving one soon moves too. At 0.25 the
-/// settled sphere-drape-100 has 7–14 % less self-collision time than with
-/// one bound for all (the share 1), and sphere-drape-30 3–4 % less; at 0.1
-/// the plans held for fewer steps and sphere-drape-30 took 20 % longer
-/// (docs/benchmarks.md 1al).
+/// a particle still beside a moving one soon moves too. At 0.25
+/// sphere-drape-100 spends about 8 % less time in self-collision than
+/// with one bound for all (the share 1), and sphere-drape-30 about the
+/// same; at 0.1 the plans held for fewer steps and sphere-drape-30's
+/// self-collision took 20 % longer (docs/benchmarks.md 1al).
 const SHARE_OF_LARGEST: Real = 0.25;
 /// The bounds' margin over the last step's motion, for one step.
 const GROWTH: Real = 2.0;
