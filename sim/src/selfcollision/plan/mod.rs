@@ -126,9 +126,6 @@ struct Bounds {
 pub struct Plan {
     base: Vec<Vec3>,
     pad: Real,
-    /// The largest of `reach_of` and of `bend_of`.
-    reach: Real,
-    bend: Real,
     /// Per particle, how far it may move from `base`.
     reach_of: Vec<Real>,
     /// Per mesh edge, how far its vector may change from `base`'s.
@@ -313,8 +310,7 @@ impl Plan {
             .extend(mesh.edges.iter().map(|&e| bound(edge(e), bend, caps.1)));
         self.base.clear();
         self.base.extend_from_slice(x);
-        (self.pad, self.reach, self.bend) =
-            (pad, bound(reach, reach, caps.0), bound(bend, bend, caps.1));
+        self.pad = pad;
         // A hair more than the bounds: a query box, rounded, stays inside.
         let (reach_of, rounding) = (&self.reach_of, ROUNDING * mesh.spacing);
         mesh.refit_boxes_each(x, x, |k| 0.5 * (pad + 2.0 * reach_of[k] + rounding));

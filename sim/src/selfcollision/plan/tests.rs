@@ -3,6 +3,31 @@
 use super::*;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 
+impl Plan {
+    /// The largest particle bound.
+    fn reach(&self) -> Real {
+        self.reach_of.iter().copied().fold(0.0, Real::max)
+    }
+
+    /// The largest edge bound.
+    fn bend(&self) -> Real {
+        self.bend_of.iter().copied().fold(0.0, Real::max)
+    }
+}
+
+/// Columns of the strip [`folded`] makes.
+const NU: usize = 16;
+
+/// A 16 x 6 strip folded back over itself 0.1 spacings above, at 0.3
+/// of its length, and its mesh.
+fn folded() -> (ClothMesh, Vec<Vec3>) {
+    let nv = 6;
+    let grid = crate::testing::flat_grid(NU, nv, [1.5, 0.5]);
+    let mesh = ClothMesh::new(&grid);
+    let x = crate::testing::folded_strip(NU, nv, mesh.spacing, 0.3, 0.1);
+    (mesh, x)
+}
+
 /// Asserts that `plan` serves the motion from `x0` to `x1` with pad `pad`
 /// and that its pairs hold every pair a refit over that motion finds;
 /// returns how many the refit found.
@@ -30,13 +55,11 @@ fn holds_a_refit(
 /// motion finds, and a motion out of bounds is refused.
 #[test]
 fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
-    // A strip folded back over itself 0.1 spacings above, jittered.
-    let (nu, nv) = (16, 6);
-    let grid = crate::testing::flat_grid(nu, nv, [1.5, 0.5]);
+    // The folded strip, jittered.
     let mut rng = StdRng::seed_from_u64(13);
-    let mut mesh = ClothMesh::new(&grid);
+    let (mut mesh, x) = folded();
     let s = mesh.spacing;
-    let x: Vec<Vec3> = crate::testing::folded_strip(nu, nv, s, 0.3, 0.1)
+    let x: Vec<Vec3> = x
         .into_iter()
         .map(|p| {
             let jitter = Vec3::new(
@@ -54,7 +77,7 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
         .collect();
     let mut plan = Plan::default();
     assert!(plan.make(&mut mesh, &x, pad, &last));
-    let (reach, bend) = (plan.reach, plan.bend);
+    let (reach, bend) = (plan.reach(), plan.bend());
     // Each particle's own bounds are at least a share of the largest.
     let least = |v: &[Real]| v.iter().copied().fold(Real::INFINITY, Real::min);
     let (reach_least, bend_least) = (least(&plan.reach_of), least(&plan.bend_of));
@@ -97,13 +120,13 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
         .collect();
     let slow: Vec<Vec3> = last.iter().map(|d| d * 0.1).collect();
     assert!(plan.make(&mut mesh, &later, pad, &slow));
-    assert_eq!((plan.base.as_slice(), plan.reach), (x.as_slice(), reach));
+    assert_eq!((plan.base.as_slice(), plan.reach()), (x.as_slice(), reach));
     let quick: Vec<Vec3> = last.iter().map(|d| d * 4.0).collect();
     assert!(plan.make(&mut mesh, &later, pad, &quick));
     assert_eq!(plan.base, later);
     plan = Plan::default();
     assert!(plan.make(&mut mesh, &x, pad, &last));
-    assert_eq!(plan.reach, reach);
+    assert_eq!(plan.reach(), reach);
     assert!(compared > 100, "only {compared} pairs compared");
     // Out of bounds: a particle moved by twice the reach.
     let mut far = x.clone();
@@ -116,13 +139,13 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
     // around it, its pairs hold a refit's.
     let moved: Vec<Vec3> = far.iter().zip(&x).map(|(a, b)| a - b).collect();
     plan.cover(&mut mesh, &x, pad, &moved);
-    assert!(plan.reach >= 2.0 * reach, "planned around the new motion");
+    assert!(plan.reach() >= 2.0 * reach, "planned around the new motion");
     holds_a_refit(&plan, &mut mesh, (&x, &far), pad);
     // A motion the plan holds keeps it.
-    let before = plan.reach;
+    let before = plan.reach();
     let half: Vec<Vec3> = moved.iter().map(|d| d * 0.5).collect();
     plan.cover(&mut mesh, &x, pad, &half);
-    assert_eq!(plan.reach, before);
+    assert_eq!(plan.reach(), before);
 }
 
 /// A strip folded over itself whose free end flaps while the rest
@@ -132,11 +155,8 @@ fn planned_pairs_hold_every_pair_of_a_motion_within_the_bounds() {
 /// same distance for a creeping particle does not.
 #[test]
 fn a_flapping_end_has_bounds_of_its_own() {
-    let (nu, nv) = (16, 6);
-    let grid = crate::testing::flat_grid(nu, nv, [1.5, 0.5]);
-    let mut mesh = ClothMesh::new(&grid);
-    let s = mesh.spacing;
-    let x = crate::testing::folded_strip(nu, nv, s, 0.3, 0.1);
+    let (mut mesh, x) = folded();
+    let (s, nu) = (mesh.spacing, NU);
     let flaps = |k: usize| k % nu == nu - 1;
     let last: Vec<Vec3> = (0..x.len())
         .map(|k| Vec3::new(0.0, 0.0, if flaps(k) { 0.02 } else { 0.001 }) * s)
@@ -147,7 +167,7 @@ fn a_flapping_end_has_bounds_of_its_own() {
     // The last column flaps; the first does not.
     let (fast, slow) = (plan.reach_of[nu - 1], plan.reach_of[0]);
     assert!(fast > 3.0 * slow, "bounds {fast} and {slow}");
-    assert!(slow >= SHARE_OF_LARGEST * plan.reach);
+    assert!(slow >= SHARE_OF_LARGEST * plan.reach());
     let mut compared = 0;
     for round in 0..6 {
         // The end up or down by most of its own bound, the rest by a
@@ -192,11 +212,8 @@ fn a_flat_cloth_plans_nothing_and_fast_motion_is_not_planned() {
 /// motion past its caps is not planned.
 #[test]
 fn a_response_plans_a_motion_too_fast_for_a_step() {
-    let (nu, nv) = (16, 6);
-    let grid = crate::testing::flat_grid(nu, nv, [1.5, 0.5]);
-    let mut mesh = ClothMesh::new(&grid);
+    let (mut mesh, x) = folded();
     let s = mesh.spacing;
-    let x = crate::testing::folded_strip(nu, nv, s, 0.3, 0.1);
     let mut rng = StdRng::seed_from_u64(29);
     let mut jitter = |size: Real| {
         Vec3::new(
